@@ -400,7 +400,7 @@ def test_errors_white_after_the_stages_whitener_get_their_own_sd_as_innovation_s
     # the whiteners returned are still the composite for the raw error: the old factor times a near-identity new one
     assert all(len(a) == 4 for a in ar[0])
     for a in ar[0]:
-        np.testing.assert_allclose(a[:2], old[0], atol=0.05)
+        np.testing.assert_allclose(a[:2], old[0][0], atol=0.05)
 
 
 def test_the_innovation_sd_settings_agree_before_any_whitener_and_a_typo_is_refused(monkeypatch):
