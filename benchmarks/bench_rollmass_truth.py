@@ -14,6 +14,7 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 4 --no-u                       # logs without the speed u(t)
     python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
+    python benchmarks/bench_rollmass_truth.py --runs 30 --innovation-sd fixed        # oe_fit.INNOVATION_SD "fixed" (stop 61)
 
 Each dumped row's last element also holds the fit's path (``path``: exact, geodesic, continued or forward-difference redo, why, each
 LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
@@ -43,6 +44,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass import restoring as rm_restoring  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.estimate import METHODS  # noqa: E402
@@ -55,6 +57,7 @@ PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)
 
 def _one(job: tuple) -> list[tuple]:
     variant, run, case, recs, methods, with_u, heel_ref, family = job
+    oe_fit.INNOVATION_SD = family.get("innovation_sd", "legacy")  # in the worker itself: a spawned one would not inherit it
     m_true, z_true = bt.truth_load(case)
     out = []
     with tempfile.TemporaryDirectory() as d:
@@ -160,7 +163,10 @@ def _code_hash() -> str:
 def _family(a: argparse.Namespace) -> dict[str, object]:
     """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``), and the
     code that fitted them (:func:`_code_hash`)."""
-    return {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
+    out = {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
+    if a.innovation_sd != "legacy":  # recorded only off the default, so a legacy dump of before stop 61 still resumes
+        out["innovation_sd"] = a.innovation_sd
+    return out
 
 
 def _misfit(i: int, theirs: object, family: dict[str, object]) -> str | None:
@@ -333,6 +339,12 @@ def main() -> None:
         choices=rm_restoring.HEEL_REFERENCES,
         default=rm_restoring.DEFAULT_HEEL_REFERENCE,
         help="how oe references the AHRS roll angle (identify.rollmass.restoring.referenced_heel); for comparisons",
+    )
+    ap.add_argument(
+        "--innovation-sd",
+        choices=("legacy", "fixed"),
+        default="legacy",
+        help="the oe weights' innovation sd (identify.rollmass.oe_fit.INNOVATION_SD, stop 61); recorded in the dump's family",
     )
     ap.add_argument(
         "--dump",

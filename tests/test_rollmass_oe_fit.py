@@ -377,3 +377,39 @@ def test_a_capped_exact_lm_goes_on_to_the_redos_answer_at_a_fraction_of_its_eval
     assert p.exact.residuals < 200 and p.exact.jacobians < 150
     assert 100 * (e.m / m_true - 1) == pytest.approx(8.77, abs=0.1)
     assert 1000 * (e.zbar_m - z_true) == pytest.approx(19.8, abs=0.3)
+
+
+def _coloured_then_whitened(seed: int = 7, n: int = 4000) -> tuple[list[np.ndarray], list[list[np.ndarray]]]:
+    """A stage's errors as ``_Problem.errors`` gives them: raw AR(1) errors (pole 0.8, a wave-coloured channel)
+    already whitened by the stage's whitener, here the exact one, so what reaches ``_reweighted`` is white."""
+    rng = np.random.default_rng(seed)
+    white = rng.standard_normal((n, 3)) * np.array([1.0, 3.0, 0.5])
+    raw = lfilter([1.0], [1.0, -0.8], white, axis=0)
+    old = np.array([1.0, -0.8])
+    return [lfilter(old, [1.0], raw, axis=0)], [[old] * 3]
+
+
+def test_errors_white_after_the_stages_whitener_get_their_own_sd_as_innovation_sd(monkeypatch):
+    # stop 61: the legacy sd applied the composite whitener (new factor * old) to errors the old one had already
+    # whitened, the old whitener twice: here sqrt(1 + 0.8^2) = 1.28 times the innovation sd, channel by channel
+    errs, old = _coloured_then_whitened()
+    monkeypatch.setattr(fit, "INNOVATION_SD", "fixed")
+    ar, sd, w = fit._reweighted(errs, old, 2)
+    np.testing.assert_allclose(sd[0], errs[0].std(axis=0), rtol=0.01)
+    np.testing.assert_allclose(w, 1.0 / sd)
+    # the whiteners returned are still the composite for the raw error: the old factor times a near-identity new one
+    assert all(len(a) == 4 for a in ar[0])
+    for a in ar[0]:
+        np.testing.assert_allclose(a[:2], old[0][0], atol=0.05)
+
+
+def test_the_innovation_sd_settings_agree_before_any_whitener_and_a_typo_is_refused(monkeypatch):
+    errs, _ = _coloured_then_whitened()
+    sds = {}
+    for s in ("legacy", "fixed"):
+        monkeypatch.setattr(fit, "INNOVATION_SD", s)
+        sds[s] = fit._reweighted(errs, None, 2)[1]
+    np.testing.assert_array_equal(sds["legacy"], sds["fixed"])
+    monkeypatch.setattr(fit, "INNOVATION_SD", "fixd")
+    with pytest.raises(ValueError, match="INNOVATION_SD is 'fixd'"):
+        fit._reweighted(errs, None, 2)
