@@ -1,5 +1,6 @@
-"""The README's example commands run as written (issue 29): every block of indented lines is
-extracted, its ``shiptrial``, ``plan-trial`` and ``python -c`` commands run in order, in-process
+"""The README's example commands run as written (issue 29), and those of the command reference
+(docs/commands/*.md, where the README's long sections moved at stop 62): every block of indented lines is
+extracted (a block on both pages once), its ``shiptrial``, ``plan-trial`` and ``python -c`` commands run in order, in-process
 (``cli.app._run``: this checkout's code, not an installed console script), in a scratch directory,
 ``/tmp/`` paths moved into it and ``$(python -c ...)`` substitutions evaluated. Exit 0 is required.
 ``pip install``, the test command (CI runs them) and benchmark scripts are not run; blocks that take longer than
@@ -19,7 +20,9 @@ import pytest
 
 from cli.app import _run
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+PAGES = [README, *sorted((ROOT / "docs" / "commands").glob("*.md"))]
 # (substring of the example, why it is not run here: CPU time measured on the shared 2-core machine)
 SLOW = {
     "plan-trial --out trial-out": "the quick start: tests/test_end_to_end.py runs the same plan --out and checks its exports "
@@ -36,16 +39,18 @@ SLOW = {
 NOT_RUN = ("pip install", "python -m pytest", "python benchmarks/")  # CI's own steps; benchmarks print figures, minutes each
 
 
-def _examples() -> list[list[str]]:
-    """The README's example blocks (consecutive indented lines), their lines split at ``&&`` into commands."""
+def _examples(pages: list[Path] = PAGES) -> list[list[str]]:
+    """The pages' example blocks (consecutive indented lines), their lines split at ``&&`` into commands;
+    a block found on two pages (the README's example repeated on its command's page) once."""
     out: list[list[str]] = []
     block: list[str] = []
-    for line in [*README.read_text(encoding="utf-8").splitlines(), ""]:
+    for line in [ln for page in pages for ln in [*page.read_text(encoding="utf-8").splitlines(), ""]]:
         if line.startswith("    ") and not line.lstrip().startswith(("|", "- ")):
             cmds = [re.sub(r"\s+#.*$", "", c.strip()) for c in line.strip().split(" && ")]
             block += [c for c in cmds if c.startswith(("shiptrial ", "plan-trial", "python ")) and not c.startswith(NOT_RUN)]
         elif block:
-            out.append(block)
+            if block not in out:
+                out.append(block)
             block = []
     return out
 
@@ -90,7 +95,7 @@ def _skipped(cmds: list[str]) -> str | None:
 
 
 def test_the_readme_has_examples_of_the_commands():
-    text = " ".join(c for cmds in EXAMPLES for c in cmds)
+    text = " ".join(c for cmds in _examples([README]) for c in cmds)
     for cmd in ("plan-trial", "shiptrial diagnose", "shiptrial yawid", "shiptrial mass"):
         assert cmd in text, cmd
 
