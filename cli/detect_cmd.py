@@ -24,7 +24,7 @@ def register(app: typer.Typer) -> None:
             ...,
             help="nominal recording CSV(s) of the podded ship: t, psi, x, y, u, v, r, phi "
             "(full model), the measured pod yaw moment tau_n or the pod inputs n1, alpha1, n2, "
-            "alpha2; optional measured sway acceleration v_dot (README: 'Recordings for detect "
+            "alpha2; optional measured sway acceleration v_dot (docs/commands/detect.md: 'Recordings for detect "
             "and detect-prior')",
         ),
         out: Path = typer.Option(..., "--out", help="prior model file to write (.json)"),
@@ -93,7 +93,7 @@ def register(app: typer.Typer) -> None:
         recordings: list[Path] = typer.Argument(
             ...,
             help="recording CSV(s) to test against the prior (columns as for "
-            "detect-prior; README: 'Recordings for detect and detect-prior')",
+            "detect-prior; docs/commands/detect.md: 'Recordings for detect and detect-prior')",
         ),
         prior_file: Path = typer.Option(..., "--prior", help="prior model from `shiptrial detect-prior`"),
         plot: Path | None = typer.Option(

@@ -64,7 +64,8 @@ def register(app: typer.Typer) -> None:
     @app.command("diagnose")
     def diagnose(
         recordings: list[str] = typer.Argument(
-            ..., help="recordings to diagnose (.csv with the columns the README lists under Recordings, or MARIN .dat)"
+            ...,
+            help="recordings to diagnose (.csv with the columns of docs/commands/diagnose.md, 'Recordings for diagnose', or MARIN .dat)",
         ),
         ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
         params: str | None = typer.Option(

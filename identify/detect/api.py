@@ -48,7 +48,7 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         header = _header(Path(p))
         if not header:
             raise RecordingError(
-                f"{p}: no header row (an empty file?); give a recording CSV (README: 'Recordings for detect and detect-prior')"
+                f"{p}: no header row (an empty file?); give a recording CSV (docs/commands/detect.md: 'Recordings for detect and detect-prior')"
             )
         problems = [f"missing column(s): {'; '.join(m)}"] if (m := missing_columns(header, kind)) else []
         renamed = renamed_columns(header)
@@ -58,7 +58,9 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
             for h, c, what in renamed
         ]
         if problems:
-            raise RecordingError(f"{p}: {'; '.join(problems)} (README: 'Recordings for detect and detect-prior')")
+            raise RecordingError(
+                f"{p}: {'; '.join(problems)} (docs/commands/detect.md: 'Recordings for detect and detect-prior')"
+            )
         if notes is not None:
             notes.extend(unknown_column_notes(p, header))
         try:
@@ -100,7 +102,10 @@ def check_declared_rate(path: Path | str, rec: Recording) -> None:
 def _header(path: Path) -> list[str]:
     _, body = split_metadata(
         read_input_text(
-            path, RecordingError, "a recording CSV (README: 'Recordings for detect and detect-prior')", "utf-8-sig"
+            path,
+            RecordingError,
+            "a recording CSV (docs/commands/detect.md: 'Recordings for detect and detect-prior')",
+            "utf-8-sig",
         ).splitlines()[:200]
     )
     return [h.strip() for h in body[0].split(",")] if body else []

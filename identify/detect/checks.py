@@ -36,7 +36,7 @@ ROLL_FLIP = 0.9
 
 UNITS_FIX = (
     f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
-    "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
+    "> 0 turning to starboard (docs/commands/detect.md: 'Recordings for detect and detect-prior')"
 )
 
 
@@ -151,7 +151,7 @@ def check_roll_sign(
         raise RecordingError(
             f"{rec.source}: column 'phi' looks negated against the prior: its yaw rate fits the recording with -phi "
             f"({flipped:.2g} rad/s rms) better than with phi ({rms:.2g}); phi is > 0 starboard side down, in the "
-            "recording and in the prior's nominal run (README: 'Recordings for detect and detect-prior')"
+            "recording and in the prior's nominal run (docs/commands/detect.md: 'Recordings for detect and detect-prior')"
         )
 
 
