@@ -65,7 +65,7 @@ def register(app: typer.Typer) -> None:
     def diagnose(
         recordings: list[str] = typer.Argument(
             ...,
-            help="recordings to diagnose (.csv with the columns of docs/commands/diagnose.md, 'Recordings for diagnose', or MARIN .dat)",
+            help="recordings to diagnose (.csv with the columns of docs/commands/diagnose.md: 'Recordings for diagnose'; or MARIN .dat)",
         ),
         ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
         params: str | None = typer.Option(

@@ -456,7 +456,7 @@ def load_recording(
     if p.suffix.lower() in (".csv", ".txt"):
         return read_csv(p, sample_time=sample_time, inputs=inputs, yaw_rate_sign=yaw_rate_sign)
     raise RecordingError(
-        f"{p}: unknown recording format {p.suffix!r}; give a .csv (the recording format of docs/commands/diagnose.md) or MARIN .dat file"
+        f"{p}: unknown recording format {p.suffix!r}; give a .csv (docs/commands/diagnose.md: 'Recordings for diagnose') or MARIN .dat file"
     )
 
 

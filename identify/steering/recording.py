@@ -44,7 +44,7 @@ def read_records(path: str | Path) -> tuple[list[SteeringData], float | None, li
         return out, float(np.mean(speeds)), notes
     if p.suffix.lower() not in (".csv", ".txt"):
         raise RecordingError(
-            f"{p}: unknown recording format {p.suffix!r}; give a .csv (the recording format of docs/commands/diagnose.md) or MARIN .dat file"
+            f"{p}: unknown recording format {p.suffix!r}; give a .csv (docs/commands/steering.md: 'Records') or MARIN .dat file"
         )
     cols, notes = _read_csv(p)
     data = _checked(p, cols, notes)
