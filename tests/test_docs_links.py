@@ -112,7 +112,8 @@ def test_every_section_a_message_or_help_names_exists():
         (f"{py.relative_to(ROOT)}", page, h)
         for pkg in PACKAGES
         for py in sorted((ROOT / pkg).rglob("*.py"))
-        for page, h in named_sections(py.read_text(encoding="utf-8"))
+        if re.search(r"README|docs/", src := py.read_text(encoding="utf-8"))  # parse only the modules that may name one
+        for page, h in named_sections(src)
     }
     missing = [
         f"{py} -> {page}: '{h}'"
