@@ -1,4 +1,4 @@
-"""Recordings: the measured motion and inputs of one trial run (the README's recording format).
+"""Recordings: the measured motion and inputs of one trial run (the recording format of docs/commands/diagnose.md).
 
 Two readers: the project CSV (``# key: value`` metadata lines, a header, one row per sample)
 and the MARIN KVLCC2 ``.dat`` files as published (two title lines, tab-separated, 3
@@ -224,7 +224,7 @@ def build_recording(
 
 
 def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
-    """``# key: value`` metadata lines and the non-empty CSV lines of a recording (the README's recording format)."""
+    """``# key: value`` metadata lines and the non-empty CSV lines of a recording (the recording format of docs/commands/diagnose.md)."""
     meta: dict[str, str] = {}
     body = []
     for line in lines:
@@ -244,7 +244,7 @@ def read_csv(
     inputs: tuple[str, ...] | list[str] | None = None,
     yaw_rate_sign: str | None = None,
 ) -> list[Recording]:
-    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see
+    """A recording CSV in the recording format of docs/commands/diagnose.md (one or more gap-free pieces; ``inputs``: see
     :func:`build_recording`; ``yaw_rate_sign``: stands for the header line ``# yaw_rate_sign:``)."""
     path = Path(path)
     lines, cut = _read_lines(path, "utf-8-sig")
@@ -334,7 +334,7 @@ def _built(
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
-    """Column names as the README's recording format gives them (lower case, no units, comma-separated, each once),
+    """Column names as the recording format of docs/commands/diagnose.md gives them (lower case, no units, comma-separated, each once),
     every required column and ship input there (all missing ones named at once); the message quotes the header as read."""
     shown = line.strip()[:80]
     if len(header) == 1:
@@ -461,7 +461,7 @@ def load_recording(
 
 
 def write_csv(rec: Recording, path: str | Path, *, meta: dict[str, str] | None = None) -> Path:
-    """Write a recording as a CSV in the README's recording format (atomically)."""
+    """Write a recording as a CSV in the recording format of docs/commands/diagnose.md (atomically)."""
     from primitives.io import atomic_write_text
 
     m = dict(rec.meta)

@@ -1,6 +1,6 @@
 """Sea maps: load a GeoJSON chart, validate and repair it, project it to a local metric frame.
 
-Format (the README's map format): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
+Format (docs/commands/plan-trial.md: 'Sea maps'): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
 ``properties.kind`` says what a feature is: ``land`` (Polygon/MultiPolygon, the default when
 ``kind`` is missing), ``depth_area`` (Polygon with ``min_depth_m``; shallower than draught +
 under-keel clearance is an obstacle), ``obstacle`` (Point with ``radius_m``, required, or Polygon),

@@ -1,5 +1,6 @@
 """Recordings for trying ``plan-trial --resume`` without a ship: the first manoeuvres of a plan
-as a ship whose parameters differ from its profile's would sail them (README, "Resuming a trial").
+as a ship whose parameters differ from its profile's would sail them (docs/commands/plan-trial.md:
+'Resuming a trial: re-design from the first recordings').
 Simulated on the profile's own model structure at drawn parameters: an example, not evidence."""
 
 from __future__ import annotations

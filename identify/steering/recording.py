@@ -1,4 +1,4 @@
-"""Steering records from recording files (the README's recording format; MARIN .dat through
+"""Steering records from recording files (the recording format of docs/commands/diagnose.md; MARIN .dat through
 :func:`diagnose.recording.load_recording`).
 
 A CSV is read with its time stamps as they are: irregular stamps stay irregular and an empty cell
