@@ -92,6 +92,14 @@ class Problem:
     goal_spatial: list[int]
     res: float = 1.0
 
+    def counter_index(self) -> tuple[list[int], list[int], int]:
+        """The packing of the counter vector (g_1..g_Q), 0 <= g_q <= d_q, into one index c = sum g_q stride_q
+        ((8.3)-(8.5); a search state's key is spatial state x G + c): each counter's radix d_q + 1, its stride and
+        G, the number of counter vectors."""
+        radix = [d + 1 for d in self.targets]
+        stride = [int(np.prod(radix[q + 1 :])) for q in range(len(self.targets))]
+        return radix, stride, int(np.prod(radix))
+
 
 @dataclass
 class SearchResult:
@@ -214,9 +222,7 @@ def search(
     more than ``max_states`` states (the memory budget)."""
     t0 = time.perf_counter()
     Q = len(pb.targets)
-    radix = [d + 1 for d in pb.targets]
-    stride = [int(np.prod(radix[q + 1 :])) for q in range(Q)]
-    G = int(np.prod(radix))
+    radix, stride, G = pb.counter_index()
     full = sum(d * st for d, st in zip(pb.targets, stride))
     D = int(sum(pb.targets))
     # per counter index: remaining uses and which counters may still advance
