@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -227,8 +226,19 @@ def plot_mc(mc: dict[str, MCResult], path_param: Path, path_dof: Path, path_norm
     the runs that did not diverge (their count is in each panel's label)."""
     plt = _plt()
     names = list(mc)
-    label = f"normalized parameter RMSE (truncated at 5; dashed: {PARAM_THRESHOLD})"
-    _threshold_histograms(plt, mc, path_param, lambda r: None if r.theta0 is None else r.param_rmse, 5, PARAM_THRESHOLD, label)
+    fig, axes = plt.subplots(len(names), 1, figsize=(7, 1.9 * len(names)), sharex=True, squeeze=False)
+    for ax, n in zip(axes[:, 0], names):
+        r = mc[n]
+        if r.theta0 is None:
+            ax.text(0.5, 0.5, "parameter RMSE not defined (predictor differs from model)", ha="center", transform=ax.transAxes)
+        else:
+            ax.hist(np.minimum(r.param_rmse[~r.diverged], 5.0), bins=50, range=(0, 5))
+            ax.axvline(PARAM_THRESHOLD, color="k", ls="--", lw=1)
+        ax.set_ylabel(_ylabel(r), fontsize=7)
+    axes[-1, 0].set_xlabel(f"normalized parameter RMSE (truncated at 5; dashed: {PARAM_THRESHOLD})")
+    fig.tight_layout()
+    atomic_savefig(fig, path_param, dpi=110)
+    plt.close(fig)
 
     caps = (1.0, 0.25, 0.15)
     fig, axes = plt.subplots(len(names), 3, figsize=(10, 1.9 * len(names)), squeeze=False)
@@ -239,42 +249,19 @@ def plot_mc(mc: dict[str, MCResult], path_param: Path, path_dof: Path, path_norm
             if i == 0:
                 axes[i, j].set_title(f"RMSE of {lab} (truncated at {cap})", fontsize=9)
         axes[i, 0].set_ylabel(_ylabel(r), fontsize=7)
-    _save_figure(plt, fig, path_dof)
-
-    label = f"norm of cross-validation simulation RMSE (truncated at 0.5; dashed: {SIM_THRESHOLD})"
-    _threshold_histograms(plt, mc, path_norm, lambda r: r.sim_norm, 0.5, SIM_THRESHOLD, label)
-
-
-def _threshold_histograms(
-    plt: Any,
-    mc: dict[str, MCResult],
-    path: Path,
-    values: Callable[[MCResult], np.ndarray | None],
-    cap: float,
-    threshold: float,
-    xlabel: str,
-) -> None:
-    """One panel per design: the histogram of ``values`` over the runs that did not diverge, truncated
-    at ``cap``, with ``threshold`` dashed (Figs. 9.1 and 9.3); ``values`` None: the panel says the
-    parameter RMSE is not defined."""
-    fig, axes = plt.subplots(len(mc), 1, figsize=(7, 1.9 * len(mc)), sharex=True, squeeze=False)
-    for ax, n in zip(axes[:, 0], mc):
-        r = mc[n]
-        x = values(r)
-        if x is None:
-            ax.text(0.5, 0.5, "parameter RMSE not defined (predictor differs from model)", ha="center", transform=ax.transAxes)
-        else:
-            ax.hist(np.minimum(x[~r.diverged], cap), bins=50, range=(0, cap))
-            ax.axvline(threshold, color="k", ls="--", lw=1)
-        ax.set_ylabel(_ylabel(r), fontsize=7)
-    axes[-1, 0].set_xlabel(xlabel)
-    _save_figure(plt, fig, path)
-
-
-def _save_figure(plt: Any, fig: Any, path: Path) -> None:
-    """``fig`` laid out tight, written to ``path`` (atomically, 110 dpi) and closed."""
     fig.tight_layout()
-    atomic_savefig(fig, path, dpi=110)
+    atomic_savefig(fig, path_dof, dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(len(names), 1, figsize=(7, 1.9 * len(names)), sharex=True, squeeze=False)
+    for ax, n in zip(axes[:, 0], names):
+        r = mc[n]
+        ax.hist(np.minimum(r.sim_norm[~r.diverged], 0.5), bins=50, range=(0, 0.5))
+        ax.axvline(SIM_THRESHOLD, color="k", ls="--", lw=1)
+        ax.set_ylabel(_ylabel(r), fontsize=7)
+    axes[-1, 0].set_xlabel(f"norm of cross-validation simulation RMSE (truncated at 0.5; dashed: {SIM_THRESHOLD})")
+    fig.tight_layout()
+    atomic_savefig(fig, path_norm, dpi=110)
     plt.close(fig)
 
 
