@@ -46,14 +46,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.rollmass_coverage_analysis import analyse  # noqa: E402
 from benchmarks.rollmass_coverage_fits import (  # noqa: E402
-    _capture,
-    _drop_column,
-    _load_fields,
-    _sea_scaled,
-    _sea_without_common,
-    _sensor_noise_off,
-    _store,
-    _waves_off,
+    capture,
+    drop_column,
+    load_fields,
+    sea_scaled,
+    sea_without_common,
+    sensor_noise_off,
+    store,
+    waves_off,
 )
 from benchmarks.rollmass_coverage_repeat import ROLES, repeat  # noqa: E402
 from benchmarks.rollmass_sea_analysis import sea_analyse, vary_analyse  # noqa: E402
@@ -66,16 +66,16 @@ CONSTANT_SPEED = ("base", "sway_roll", "restoring", "imu_mount", "waves")
 
 def fit(a: argparse.Namespace) -> None:
     if a.sea_scale != 1.0:
-        _sea_scaled(a.sea_scale)
+        sea_scaled(a.sea_scale)
     if a.own_sea:
-        _sea_without_common()
+        sea_without_common()
     if a.no_sensor_noise:
-        _sensor_noise_off()
+        sensor_noise_off()
     if a.no_waves:
-        _waves_off()
+        waves_off()
     outdir = Path(a.dir)
     outdir.mkdir(parents=True, exist_ok=True)
-    seen = _capture()
+    seen = capture()
     sims = {}
     for variant in a.variants.split(","):
         seed = bt.variant_seed(a.seed, variant)  # as bench_rollmass_truth.py
@@ -93,7 +93,7 @@ def fit(a: argparse.Namespace) -> None:
                     recs = bt.case_recordings(ship, data, case, run)
                     paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
                     if a.no_phi:  # no roll angle: no wall-sided heel input from the measured (sea-driven) roll
-                        paths = [_drop_column(p, "phi") for p in paths]
+                        paths = [drop_column(p, "phi") for p in paths]
                     try:
                         e = estimate_from_files(*paths, method="oe")
                     except UserError as exc:
@@ -104,10 +104,10 @@ def fit(a: argparse.Namespace) -> None:
                     print(f"{path.name}: no covariance ({'; '.join(e.warnings)[:80]})", flush=True)
                     continue
                 keep = {"J": seen["J"]} if a.keep_jacobian else {}
-                _store(
+                store(
                     seen,
                     path,
-                    **_load_fields(e, m_true, z_true),
+                    **load_fields(e, m_true, z_true),
                     converged=e.converged,
                     cpu=cpu,
                     rho=seen["rho"],

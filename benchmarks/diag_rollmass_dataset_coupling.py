@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks.rollmass_coverage_fits import _capture, _sensor_noise_off  # noqa: E402
-from benchmarks.rollmass_coverage_repeat import _fresh_sea  # noqa: E402
+from benchmarks.rollmass_coverage_fits import capture, sensor_noise_off  # noqa: E402
+from benchmarks.rollmass_coverage_repeat import fresh_sea  # noqa: E402
 from benchmarks.rollmass_sea_analysis import score_sums  # noqa: E402
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
@@ -46,7 +46,7 @@ def _recordings(d: str) -> list[Path]:
 def datasets_for(scale: float, key: list[int]):
     """The datasets the fit reads for one sea (``scale`` of the truth's base disturbance, its stream ``key``),
     stopped before any fitting."""
-    _fresh_sea(scale, key)
+    fresh_sea(scale, key)
     orig = oe_fit._best_start
     oe_fit._best_start = _grab
     try:
@@ -64,9 +64,9 @@ def main() -> None:
     ap.add_argument("--root", type=Path, default=Path("/tmp/s51"), help="where the repeat --store directories are")
     args = ap.parse_args()
     c0 = time.process_time()
-    _sensor_noise_off()
-    seen = _capture()  # sea 0 of seed 777: one real fit, for its final problem (whiteners, weights)
-    _fresh_sea(1.0, [777, 0])
+    sensor_noise_off()
+    seen = capture()  # sea 0 of seed 777: one real fit, for its final problem (whiteners, weights)
+    fresh_sea(1.0, [777, 0])
     with tempfile.TemporaryDirectory() as d:
         e = estimate_from_files(*_recordings(d), method="oe")
     prob0 = seen["prob"]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import stdtrit
 
-from benchmarks.rollmass_sea_analysis import _leveraged
+from benchmarks.rollmass_sea_analysis import leveraged
 from identify.rollmass import sandwich as sw
 
 
@@ -40,7 +40,7 @@ def _cov(z: dict, lags: list[int] | int) -> np.ndarray:
 def _reported(z: dict) -> np.ndarray:
     """The covariance the fit reported: the plain 5 s sandwich, leverage-corrected where the fit stored ``rho``."""
     C = _cov(z, int(z["lags"]))
-    return _leveraged(z, C) if "rho" in z else C
+    return leveraged(z, C) if "rho" in z else C
 
 
 def andrews_lags(g: np.ndarray) -> int:
@@ -119,11 +119,9 @@ def analyse(a: argparse.Namespace) -> None:
         rows += _rows(fits, f"NW {L_s:g} s", lambda z, L=round(L_s / T): _cov(z, L))
     rows += _rows(fits, "NW auto (A91)", lambda z: _cov(z, [andrews_lags(g) for g in _influence(z)]))
     if all("rho" in z for *_, z in fits):
-        rows += _rows(fits, "NW 5 s leverage", lambda z: _leveraged(z, _cov(z, int(z["lags"]))))
+        rows += _rows(fits, "NW 5 s leverage", lambda z: leveraged(z, _cov(z, int(z["lags"]))))
     if all("nu" in z for *_, z in fits):  # Bell & McCaffrey's t_{0.975, nu} for 1.96 (sandwich.load_dof)
-        rows += _rows(
-            fits, "NW 5 s lev t_nu", lambda z: _leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975)
-        )
+        rows += _rows(fits, "NW 5 s lev t_nu", lambda z: leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975))
     print()
     _table(rows, by_case=False)
     if all("nu" in z for *_, z in fits):
@@ -142,7 +140,7 @@ def _dof_table(fits: list) -> None:
     z-scores: does the interval hold the truth with 1.96, with ``t``? (mass / height)"""
     print("\nper fit: nu (m / z), t_0.975 (m / z), |z| leverage-corrected (m / z), holds with 1.96 -> with t")
     for variant, case, run, z in fits:
-        sd = np.sqrt(np.diag(_leveraged(z, _cov(z, int(z["lags"])))))
+        sd = np.sqrt(np.diag(leveraged(z, _cov(z, int(z["lags"])))))
         a = np.abs([(z["m"] - z["m_true"]) / sd[0], (z["z"] - z["z_true"]) / sd[1]])
         t = stdtrit(z["nu"], 0.975)
         print(

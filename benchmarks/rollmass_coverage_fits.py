@@ -1,5 +1,5 @@
 """What one oe fit of the basin truth leaves for the coverage bench (:mod:`benchmarks.bench_rollmass_coverage`): the
-fit's last covariance call and final problem captured (:func:`_capture`), its scores stored (:func:`_store`), and the
+fit's last covariance call and final problem captured (:func:`capture`), its scores stored (:func:`store`), and the
 truth's switches that take a noise source out or change the sea (each replaces a :mod:`tests.physics.basin_truth`
 function, its random draws unchanged)."""
 
@@ -14,7 +14,7 @@ from identify.rollmass import oe_fit
 from tests.physics import basin_truth as bt
 
 
-def _capture() -> dict:
+def capture() -> dict:
     """Wrap oe_fit's covariance call (the fit's last, at its final point) to keep its arguments and result."""
     seen: dict = {}
     orig = oe_fit.load_interval
@@ -37,7 +37,7 @@ def _capture() -> dict:
     return seen
 
 
-def _store(seen: dict, path: Path, **extra) -> None:
+def store(seen: dict, path: Path, **extra) -> None:
     """The scores, residuals and products of one fit (see the module docstring) in ``path``."""
     J, f, lengths = seen["J"], seen["f"], seen["lengths"]
     out, i = {}, 0
@@ -52,12 +52,12 @@ def _store(seen: dict, path: Path, **extra) -> None:
     tmp.replace(path)
 
 
-def _load_fields(e, m_true: float, z_true: float) -> dict[str, float]:
+def load_fields(e, m_true: float, z_true: float) -> dict[str, float]:
     """A fit's load, its reported sds and the truth's, as the stored files name them."""
     return {"m": e.m, "z": e.zbar_m, "m_sd": e.m_sd, "z_sd": e.zbar_m_sd, "m_true": m_true, "z_true": z_true}
 
 
-def _sensor_noise_off() -> None:
+def sensor_noise_off() -> None:
     """The truth's waves kept and its IMU noise and bias switched off (its ``_measure``'s noise scale 0; the
     filters stay): with the ``quiet`` and the full fits it splits the noise's part into waves and sensor."""
     measure = bt._measure
@@ -68,14 +68,14 @@ def _sensor_noise_off() -> None:
     bt._measure = quiet_sensor
 
 
-def _waves_off() -> None:
+def waves_off() -> None:
     """The truth's IMU noise kept and its sea (JONSWAP or narrow-band disturbance) switched off."""
     for name in ("_jonswap", "_narrowband"):
         draw = getattr(bt, name)
         setattr(bt, name, lambda *args, _draw=draw: 0.0 * _draw(*args))  # drawn, so the rng stream is unchanged
 
 
-def _sea_without_common() -> None:
+def sea_without_common() -> None:
     """The truth's base disturbance (:func:`basin_truth._narrowband`, its draws unchanged) without the component
     it shares across sway, roll and yaw: each degree of freedom only its own resonance, same sd."""
 
@@ -93,14 +93,14 @@ def _sea_without_common() -> None:
     bt._narrowband = own
 
 
-def _sea_scaled(k: float) -> None:
+def sea_scaled(k: float) -> None:
     """The truth's sea (JONSWAP or base disturbance, draws unchanged) times ``k``."""
     for name in ("_jonswap", "_narrowband"):
         draw = getattr(bt, name)
         setattr(bt, name, lambda *args, _draw=draw: k * _draw(*args))
 
 
-def _drop_column(path: Path, name: str) -> Path:
+def drop_column(path: Path, name: str) -> Path:
     """Rewrite a recording written by :func:`basin_truth.write_csv` without its column ``name`` (its
     ``# key: value`` lines and the other columns' text unchanged)."""
     lines = path.read_text().splitlines()

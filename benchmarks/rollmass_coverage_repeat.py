@@ -13,14 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.rollmass_coverage_fits import _capture, _load_fields, _sensor_noise_off
+from benchmarks.rollmass_coverage_fits import capture, load_fields, sensor_noise_off
 from identify.rollmass import oe_fit
 from identify.rollmass.api import estimate_from_files
 from primitives.errors import UserError
 from tests.physics import basin_truth as bt
 
 
-def _fresh_sea(scale: float, key: list[int], hold: tuple[list[int], set[int]] | None = None) -> None:
+def fresh_sea(scale: float, key: list[int], hold: tuple[list[int], set[int]] | None = None) -> None:
     """The truth's sea (JONSWAP or base disturbance) drawn from a stream of its own, ``key`` + a call
     counter, times ``scale``; the truth's own draw is made and dropped, so the run's stream goes on as
     before (the ship, the steering and the sensor noise stay the draws of the truth's seed). The sea is
@@ -44,9 +44,9 @@ def _fresh_sea(scale: float, key: list[int], hold: tuple[list[int], set[int]] | 
 _TRUTH_SEA: dict = {}
 
 
-def _fresh_sensor(key: list[int]) -> None:
+def fresh_sensor(key: list[int]) -> None:
     """The IMU's noise and bias (:func:`basin_truth._measure`'s draws, and its AHRS roll error's seed) drawn from a
-    stream of its own, ``key`` + a call counter (the dataset's index, as in :func:`_fresh_sea`), instead of the run's
+    stream of its own, ``key`` + a call counter (the dataset's index, as in :func:`fresh_sea`), instead of the run's
     stream: each realization then has its own sensor noise, where plain ``repeat`` keeps the family's draw on every
     sea. ``_measure`` is the run stream's last consumer, so the ship, the steering and the sea are unchanged."""
     calls = [0]
@@ -64,7 +64,7 @@ def _quiet_reference(a: argparse.Namespace, seed: int, seen: dict) -> dict:
     """The same ship, case and steering without the sea (and, with ``--no-sensor-noise``, without the sensor's noise):
     its fit's final point ``x_q`` (the ship's pseudo-true parameters in the oe model) and its datasets as the
     fit read them (for :func:`_disturbance`)."""
-    _fresh_sea(0.0, [a.sea_seed, 10**6])
+    fresh_sea(0.0, [a.sea_seed, 10**6])
     ship, data = bt.simulate_runs(a.variant, a.runs, seed)
     seen.clear()
     with tempfile.TemporaryDirectory() as d:
@@ -98,9 +98,9 @@ ROLES = ("nominal", "calibration", "loaded")
 FROZEN_STAGES = inspect.signature(oe_fit.fit_output_error).parameters["n_reweight"].default
 
 
-def _held_sea(a: argparse.Namespace) -> tuple[list[int], set[int]] | None:
+def held_sea(a: argparse.Namespace) -> tuple[list[int], set[int]] | None:
     """``--vary ROLE``: the fresh sea for that role's dataset only, the case's other datasets on one held sea
-    (``--held-sea K``: realization K's of ``--sea-seed``), for :func:`_fresh_sea`; ``None`` for ``--vary all``."""
+    (``--held-sea K``: realization K's of ``--sea-seed``), for :func:`fresh_sea`; ``None`` for ``--vary all``."""
     if not 0 <= a.held_sea < a.realizations:
         raise SystemExit(f"--held-sea {a.held_sea}: must be one of the {a.realizations} realizations (it is fitted first)")
     if a.vary == "all":
@@ -109,7 +109,7 @@ def _held_sea(a: argparse.Namespace) -> tuple[list[int], set[int]] | None:
     return [a.sea_seed, a.held_sea], {list(bt.DATASETS).index(name)}
 
 
-def _frozen_noise() -> list:
+def frozen_noise() -> list:
     """``--freeze-noise``: the first fit after this call records its stages' whiteners and weights
     (``oe_fit._reweighted``'s returns), every later fit replays them in the same order instead of estimating its own
     from its residuals (the noise model held, as the sandwich takes it: given, not estimated from the same data)."""
@@ -135,30 +135,30 @@ def _sensor_label(a: argparse.Namespace) -> str:
 
 def repeat(a: argparse.Namespace) -> None:
     """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
-    draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
+    draws), fitted on ``--realizations`` fresh seas (:func:`fresh_sea`): the load's spread over the seas
     against the mean sd the fits report, and the z-scores ``(estimate - truth) / reported sd``. Unlike the
     pooled fits of ``fit`` (ships and cases differ, and a run's cases share datasets) this measures the
     interval of one ship: its sandwich's error, not the spread of the family's biases."""
     if a.fresh_sensor and a.no_sensor_noise:
         raise SystemExit("--fresh-sensor with --no-sensor-noise: there is no sensor noise to draw afresh; fix: drop one")
     if a.no_sensor_noise:
-        _sensor_noise_off()
+        sensor_noise_off()
     seed = bt.variant_seed(a.seed, a.variant)  # as bench_rollmass_truth.py
     m_true, z_true = bt.truth_load(a.case)
-    seen = _capture()
+    seen = capture()
     if a.store:
         Path(a.store).mkdir(parents=True, exist_ok=True)
     quiet = _quiet_reference(a, seed, seen) if a.store else None
     rows = []
-    hold = _held_sea(a)
+    hold = held_sea(a)
     if a.freeze_noise:  # recorded on the held sea's fit (realization --held-sea is fitted first)
-        _frozen_noise()
+        frozen_noise()
     order = sorted(range(a.realizations), key=lambda k: k != a.held_sea)
     for k in order:
         seen.clear()
-        _fresh_sea(a.sea_scale, [a.sea_seed, k], hold)
+        fresh_sea(a.sea_scale, [a.sea_seed, k], hold)
         if a.fresh_sensor:
-            _fresh_sensor([a.sea_seed, k])
+            fresh_sensor([a.sea_seed, k])
         ship, data = bt.simulate_runs(a.variant, a.runs, seed)
         with tempfile.TemporaryDirectory() as d:
             recs = bt.case_recordings(ship, data, a.case, a.run)
@@ -172,7 +172,7 @@ def repeat(a: argparse.Namespace) -> None:
         if e.converged and np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd):  # a failed fit is said, not averaged
             rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
             if a.store and "J" in seen:
-                _store_sea(Path(a.store) / f"sea{k:02d}.npz", seen, quiet, _load_fields(e, m_true, z_true))
+                _store_sea(Path(a.store) / f"sea{k:02d}.npz", seen, quiet, load_fields(e, m_true, z_true))
         print(
             f"sea {k:2d}: m {e.m:.4f} sd {e.m_sd:.4f}, z {e.zbar_m:.4f} sd {e.zbar_m_sd:.4f}, converged {e.converged}, "
             f"{time.process_time() - c0:.1f} s cpu",

@@ -13,7 +13,7 @@ import numpy as np
 from identify.rollmass import sandwich as sw
 
 
-def _leveraged(z: dict, C: np.ndarray) -> np.ndarray:
+def leveraged(z: dict, C: np.ndarray) -> np.ndarray:
     """``C`` (the load's 2x2) with the fit's stored leverage factors (:func:`sandwich.load_cov`'s scaling)."""
     s = sw.leverage_scale(z["rho"])
     return C * np.outer(s, s)
@@ -55,7 +55,7 @@ def sea_analyse(a: argparse.Namespace) -> None:
             covs[name].append((Ainv @ _meat_of(J, res, lengths, lags) @ Ainv)[-2:, -2:])
     rep = np.array([[z["m_sd"], z["z_sd"]] for z in fits])
     rho = np.array([sw.leverage_factors(z["J"], list(z["lengths"]), int(z["lags"])) for z in fits])
-    covs["fitted, leverage"] = [_leveraged({"rho": r}, c) for r, c in zip(rho, covs["fitted (i)"])]
+    covs["fitted, leverage"] = [leveraged({"rho": r}, c) for r, c in zip(rho, covs["fitted (i)"])]
     plain = np.sqrt([np.diag(c) for c in covs["fitted (i)"]])
     print(
         f"{a.dir}: {len(fits)} seas; reported sd over the plain sandwich's {np.median(rep / plain, axis=0).round(4)}, "

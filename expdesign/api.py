@@ -362,6 +362,29 @@ def _rounded_rows(section: dict, local: dict, robust: dict, criterion: str, note
         )
 
 
+def _check_prior_options(
+    criterion: str, parameter_prior: ParameterPrior | None, disturbed_realisations: int, prior: PrimitiveInfo | None
+) -> None:
+    """Refuse what a criterion cannot use: a robust one (bayes-D, maximin-D) needs the parameter prior's draws and
+    no noisy moments or data already collected (its information at each draw is noise-free); a local one takes no
+    parameter prior."""
+    robust = criterion in ROBUST
+    if robust and parameter_prior is None:
+        raise DesignError(
+            f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION or --prior-file PATH"
+        )
+    if robust and (disturbed_realisations or prior is not None):
+        given = "--noisy-moments (disturbed_realisations)" if disturbed_realisations else "data already collected (prior)"
+        raise DesignError(
+            f"{given} is not used by --criterion {criterion} (its information at each draw is noise-free, "
+            "with no data counted in): drop it, or design with --criterion D"
+        )
+    if parameter_prior is not None and not robust:
+        raise DesignError(
+            f"a parameter prior is for the robust criteria: give --criterion bayes-D or maximin-D (got {criterion!r})"
+        )
+
+
 def run_design(
     profile: ShipProfile | str,
     primitives: list[Primitive] | None = None,
@@ -403,20 +426,7 @@ def run_design(
         profile = load_profile(profile)
     criterion = canonical_criterion(criterion)
     robust = criterion in ROBUST
-    if robust and parameter_prior is None:
-        raise DesignError(
-            f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION or --prior-file PATH"
-        )
-    if robust and (disturbed_realisations or prior is not None):
-        given = "--noisy-moments (disturbed_realisations)" if disturbed_realisations else "data already collected (prior)"
-        raise DesignError(
-            f"{given} is not used by --criterion {criterion} (its information at each draw is noise-free, "
-            "with no data counted in): drop it, or design with --criterion D"
-        )
-    if parameter_prior is not None and not robust:
-        raise DesignError(
-            f"a parameter prior is for the robust criteria: give --criterion bayes-D or maximin-D (got {criterion!r})"
-        )
+    _check_prior_options(criterion, parameter_prior, disturbed_realisations, prior)
     notes: list[str] = []
     prims = _informative_library(profile, primitives, psi_switch, "D" if robust else criterion, mean_subtraction, notes)
     names = [p.name for p in prims]

@@ -88,29 +88,11 @@ class Constraints:
         if self.A.size:
             from scipy.optimize import linprog  # only constrained designs: not imported by every plan
 
-            r = linprog(
-                np.zeros(len(names)),
-                A_ub=self.A,
-                b_ub=self.b,
-                A_eq=np.ones((1, len(names))),
-                b_eq=[1.0],
-                bounds=list(zip(self.lo, self.hi)),
-                method="highs",
-            )
+            # the mixes: fractions within their bounds summing to 1; one budget's cheapest mix says what it needs
+            mixes = dict(A_eq=np.ones((1, len(names))), b_eq=[1.0], bounds=list(zip(self.lo, self.hi)), method="highs")
+            r = linprog(np.zeros(len(names)), A_ub=self.A, b_ub=self.b, **mixes)
             if r.status != 0:
-                cheapest = [
-                    float(
-                        self.A[i]
-                        @ linprog(
-                            self.A[i],
-                            A_eq=np.ones((1, len(names))),
-                            b_eq=[1.0],
-                            bounds=list(zip(self.lo, self.hi)),
-                            method="highs",
-                        ).x
-                    )
-                    for i in range(len(self.b))
-                ]
+                cheapest = [float(self.A[i] @ linprog(self.A[i], **mixes).x) for i in range(len(self.b))]
                 detail = ", ".join(f"{lab}: needs >= {c:.4g}, budget {b:.4g}" for lab, c, b in zip(self.labels, cheapest, self.b))
                 raise DesignError(
                     f"infeasible constraints: no mix meets the budgets ({detail}); raise a budget or shorten the trial"

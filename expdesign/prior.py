@@ -50,6 +50,13 @@ class ParameterPrior:
     sampler: Callable[[int, np.random.Generator], np.ndarray] | None = None  # fresh draws; None: a file's fixed draws
     seed: int = 0
 
+    @classmethod
+    def sampled(
+        cls, centre: np.ndarray, sampler: Callable[[int, np.random.Generator], np.ndarray], n_draws: int, seed: int, source: str
+    ) -> ParameterPrior:
+        """A prior whose ``draws`` are ``sampler``'s first ``n_draws`` from the DESIGN stream of ``seed``."""
+        return cls(centre, sampler(int(n_draws), stream(seed, DESIGN)), source, sampler, seed)
+
     def fresh(self, n_draws: int, key: tuple[int, ...]) -> np.ndarray | None:
         """``n_draws`` new draws from the stream ``key`` of the prior's seed, independent of
         ``draws``; None for a file's fixed draws (nothing to draw from but them: in-sample)."""
@@ -93,9 +100,7 @@ def profile_prior(profile: ShipProfile, n_draws: int = DEFAULT_DRAWS, seed: int 
     def sample(n: int, rng: np.random.Generator) -> np.ndarray:
         return centre + std * rng.standard_normal((n, centre.size))
 
-    return ParameterPrior(
-        centre, sample(int(n_draws), stream(seed, DESIGN)), "the profile's [prior] std (Gaussian)", sample, seed
-    )
+    return ParameterPrior.sampled(centre, sample, n_draws, seed, "the profile's [prior] std (Gaussian)")
 
 
 def _check_count(n_draws: int) -> None:
@@ -115,13 +120,7 @@ def spread_prior(profile: ShipProfile, spread: float, n_draws: int = DEFAULT_DRA
     def sample(n: int, rng: np.random.Generator) -> np.ndarray:
         return centre * (1.0 + spread * rng.uniform(-1.0, 1.0, (n, centre.size)))
 
-    return ParameterPrior(
-        centre,
-        sample(int(n_draws), stream(seed, DESIGN)),
-        f"+-{100 * spread:g} % uniform spread",
-        sample,
-        seed,
-    )
+    return ParameterPrior.sampled(centre, sample, n_draws, seed, f"+-{100 * spread:g} % uniform spread")
 
 
 def file_prior(profile: ShipProfile, path: str | Path, n_draws: int | None = None, seed: int = 0) -> ParameterPrior:
@@ -172,13 +171,7 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int | None = Non
         return mean + rng.standard_normal((n, mean.size)) @ root.T
 
     # the centre stays the profile's simulation set (the module doc): the mean only moves the draws
-    return ParameterPrior(
-        centre,
-        sample(int(n_draws), stream(seed, DESIGN)),
-        f"Gaussian covariance from {p.name}",
-        sample,
-        seed,
-    )
+    return ParameterPrior.sampled(centre, sample, n_draws, seed, f"Gaussian covariance from {p.name}")
 
 
 def _order(profile: ShipProfile, names: object, p: Path) -> np.ndarray:

@@ -92,6 +92,14 @@ class Problem:
     goal_spatial: list[int]
     res: float = 1.0
 
+    def counter_index(self) -> tuple[list[int], list[int], int]:
+        """The packing of the counter vector (g_1..g_Q), 0 <= g_q <= d_q, into one index c = sum g_q stride_q
+        ((8.3)-(8.5); a search state's key is spatial state x G + c): each counter's radix d_q + 1, its stride and
+        G, the number of counter vectors."""
+        radix = [d + 1 for d in self.targets]
+        stride = [int(np.prod(radix[q + 1 :])) for q in range(len(self.targets))]
+        return radix, stride, int(np.prod(radix))
+
 
 @dataclass
 class SearchResult:
@@ -159,6 +167,48 @@ class _Rows(dict):
         return out
 
 
+def _heuristic_rows(
+    pb: Problem, heuristic: str, weights: tuple[float, float, float], basic_cost: float, table: np.ndarray | None, D: int
+) -> _Rows:
+    """The heuristic by spatial state (row) and informative manoeuvres still to sail (column, 0..``D``): "admissible",
+    the relaxed problem's cost to go (:func:`relaxed_table`, or ``table``) floored to whole ``basic_cost``; "thesis",
+    (8.9)-(8.12): ``weights`` (a1, a2, a3) times the distance to the nearest goal, its heading change and the
+    manoeuvres left."""
+    K, nj, ns = pb.n_head, pb.nj, len(pb.succ)
+    if heuristic == "admissible":
+        tab = relaxed_table(pb) if table is None else table
+        return _Rows(tab, lambda row: np.floor(row / basic_cost + 1e-6) * basic_cost)  # drop the EPS residue
+    if heuristic != "thesis":
+        raise ValueError(f"heuristic must be 'admissible' or 'thesis', got {heuristic!r}")
+    a1, a2, a3 = weights
+    sp = np.arange(ns)
+    cell = sp // K
+    p = np.column_stack([cell // nj, cell % nj]).astype(float) * pb.res
+    gs = np.asarray(pb.goal_spatial)
+    goal_p = np.column_stack([(gs // K) // nj, (gs // K) % nj]).astype(float) * pb.res
+    d = np.min(np.hypot(p[:, None, 0] - goal_p[None, :, 0], p[:, None, 1] - goal_p[None, :, 1]), axis=1)
+    if len(set((gs % K).tolist())) == K:
+        dpsi = np.zeros(ns)
+    else:
+        dh = np.abs(((sp[:, None] % K) - (gs[None, :] % K) + K // 2) % K - K // 2)
+        dpsi = dh.min(axis=1) * 2 * np.pi / K
+    return _Rows((a1 * d + a2 * dpsi)[:, None] + a3 * np.arange(D + 1)[None, :])  # (8.9)-(8.12)
+
+
+def _path(parent: dict[int, tuple[int, int]], found_key: int, G: int) -> tuple[list[int], list[int]]:
+    """The moves and spatial states from the start to ``found_key``, followed back through ``parent``
+    (key = spatial state x ``G`` + counter index)."""
+    moves, spatial = [], [found_key // G]
+    k = found_key
+    while k in parent:
+        k, m = parent[k]
+        moves.append(m)
+        spatial.append(k // G)
+    moves.reverse()
+    spatial.reverse()
+    return moves, spatial
+
+
 def search(
     pb: Problem,
     heuristic: str = "admissible",
@@ -171,11 +221,8 @@ def search(
     """A* with a binary heap (heapq), packed integer keys and a closed set; stops when it holds
     more than ``max_states`` states (the memory budget)."""
     t0 = time.perf_counter()
-    K, nj = pb.n_head, pb.nj
     Q = len(pb.targets)
-    radix = [d + 1 for d in pb.targets]
-    stride = [int(np.prod(radix[q + 1 :])) for q in range(Q)]
-    G = int(np.prod(radix))
+    radix, stride, G = pb.counter_index()
     full = sum(d * st for d, st in zip(pb.targets, stride))
     D = int(sum(pb.targets))
     # per counter index: remaining uses and which counters may still advance
@@ -185,26 +232,7 @@ def search(
     can = [[bool(g_of[c, q] < pb.targets[q]) for q in range(Q)] for c in range(G)]
     goal_set = set(pb.goal_spatial)
 
-    ns = len(pb.succ)
-    if heuristic == "admissible":
-        tab = relaxed_table(pb) if table is None else table
-        htab = _Rows(tab, lambda row: np.floor(row / basic_cost + 1e-6) * basic_cost)  # drop the EPS residue
-    elif heuristic == "thesis":
-        a1, a2, a3 = weights
-        sp = np.arange(ns)
-        cell = sp // K
-        p = np.column_stack([cell // nj, cell % nj]).astype(float) * pb.res
-        gs = np.asarray(pb.goal_spatial)
-        goal_p = np.column_stack([(gs // K) // nj, (gs // K) % nj]).astype(float) * pb.res
-        d = np.min(np.hypot(p[:, None, 0] - goal_p[None, :, 0], p[:, None, 1] - goal_p[None, :, 1]), axis=1)
-        if len(set((gs % K).tolist())) == K:
-            dpsi = np.zeros(ns)
-        else:
-            dh = np.abs(((sp[:, None] % K) - (gs[None, :] % K) + K // 2) % K - K // 2)
-            dpsi = dh.min(axis=1) * 2 * np.pi / K
-        htab = _Rows((a1 * d + a2 * dpsi)[:, None] + a3 * np.arange(D + 1)[None, :])  # (8.9)-(8.12)
-    else:
-        raise ValueError(f"heuristic must be 'admissible' or 'thesis', got {heuristic!r}")
+    htab = _heuristic_rows(pb, heuristic, weights, basic_cost, table, D)
 
     s0 = pb.start_spatial
     k0 = s0 * G
@@ -291,14 +319,7 @@ def search(
             f"no sequence of moves meets all counters and reaches the goal ({why})",
             {"D": D},
         )
-    moves, spatial = [], [found_key // G]
-    k = found_key
-    while k in parent:
-        k, m = parent[k]
-        moves.append(m)
-        spatial.append(k // G)
-    moves.reverse()
-    spatial.reverse()
+    moves, spatial = _path(parent, found_key, G)
     return SearchResult(
         True, moves, spatial, gcost[found_key], expansions, len(gcost), dt, heuristic, heuristic == "admissible", h0
     )

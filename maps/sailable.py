@@ -37,9 +37,7 @@ def sailable_mixes(pb: Problem, max_states: int = MAX_STATES) -> set[tuple[int, 
     (each g_q <= d_q, the problem's targets); None when the search would visit more than
     ``max_states`` states (undecided)."""
     Q = len(pb.targets)
-    radix = [d + 1 for d in pb.targets]
-    stride = [int(np.prod(radix[q + 1 :])) for q in range(Q)]
-    G = int(np.prod(radix))
+    radix, stride, G = pb.counter_index()
     back = goal_reachable(pb)
     if not back[pb.start_spatial]:
         return set()

@@ -223,14 +223,20 @@ def excitation_zigzag(
     splits: list[int] = []
 
     def policy(k, nu, psi, memo):
-        s = memo.setdefault("s", side)
-        if s * psi >= psi_switch:
-            memo["s"] = -s
-            splits.append(k)
-        return pos if memo["s"] > 0 else neg
+        return pos if _zigzag_side(k, psi, memo, side, psi_switch, splits) > 0 else neg
 
     forces, _ = closed_loop(profile, policy, n, (u, 0.0, 0.0))
     return Generated(forces, (u, 0.0, 0.0), splits, heading_switched=True)
+
+
+def _zigzag_side(k: int, psi: float, memo: dict, first: int, psi_switch: float, splits: list[int]) -> int:
+    """The side (+1 starboard, -1 port; ``first`` at the start, kept in ``memo``) a zig-zag pushes to at step ``k``:
+    reversed, and ``k`` added to ``splits``, once the heading ``psi`` has passed ``psi_switch`` on the side pushed to."""
+    s = memo.setdefault("s", first)
+    if s * psi >= psi_switch:
+        memo["s"] = -s
+        splits.append(k)
+    return memo["s"]
 
 
 def excitation_spiral(profile: ShipProfile, n: int, u: float, v: float, r_end: float) -> Generated:
@@ -272,13 +278,8 @@ def zigzag(
     splits: list[int] = []
 
     def policy(k, nu, psi, memo):
-        s = memo.setdefault("s", side)
-        if s * psi >= psi_sw:
-            memo["s"] = -s
-            splits.append(k)
-            if len(splits) > n_switches:
-                return None
-        return (tx, 0.0, memo["s"] * tn)
+        s = _zigzag_side(k, psi, memo, side, psi_sw, splits)
+        return None if len(splits) > n_switches else (tx, 0.0, s * tn)
 
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
     return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], heading_switched=True)

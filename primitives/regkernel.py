@@ -52,6 +52,22 @@ def _program(terms: tuple[tuple[str, ...], ...]) -> tuple | None:
     return tuple(names), ints[0], ints[1], ints[2], ints[3], np.asarray(f_sta, float), ints[4], r_idx
 
 
+def _stacked(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...]) -> tuple[tuple, np.ndarray] | None:
+    """The compiled program of ``terms`` (:func:`_program`) and the signals it reads, one row each, broadcast to
+    ``shape`` and flattened; None when the numpy build is to be used (a power it does not form, the compiled code
+    not loaded, or a signal missing: the numpy build raises its usual error)."""
+    prog = _program(terms.terms)
+    if prog is None or not jitloop.loaded():
+        return None
+    names = prog[0]
+    if any(n not in sig for n in names):
+        return None
+    s = np.empty((len(names), int(np.prod(shape))))
+    for i, n in enumerate(names):
+        s[i] = np.broadcast_to(sig[n], shape).reshape(-1)
+    return prog, s
+
+
 def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray | None:
     """Phi (*shape, p) from the signals ``sig`` (each broadcastable to ``shape``) in one compiled
     pass, or None when the numpy build is to be used: a power outside PRODUCT_POWERS, no terms or no
@@ -62,15 +78,10 @@ def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[in
     after install) and the compiled build gains little over numpy's (20 x 1000 samples, model-ship:
     1.8 ms against 1.5 ms; 500 x 1000: 74 ms against 87 ms, CPU medians under load)."""
     size = int(np.prod(shape))
-    prog = _program(terms.terms) if size and terms.n_params else None
-    if prog is None or not jitloop.loaded():
+    got = _stacked(terms, sig, shape) if size and terms.n_params else None
+    if got is None:
         return None
-    names, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx = prog
-    if any(n not in sig for n in names):
-        return None  # the numpy build raises its usual error
-    s = np.empty((len(names), size))
-    for i, n in enumerate(names):
-        s[i] = np.broadcast_to(sig[n], shape).reshape(-1)
+    (_, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx), s = got
     out = np.empty((size, terms.n_params))
     _build(s, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx)
     return out.reshape(shape + (terms.n_params,))
@@ -110,15 +121,10 @@ def block_moments(
     time and each tile's products summed by BLAS, so the sums differ from those over the whole Phi
     (numpy's pairwise sum, one BLAS product per block) by their order, rounding only."""
     size = int(np.prod(shape))
-    prog = _program(terms.terms) if size and terms.n_params and len(shape) == 2 else None
-    if prog is None or not jitloop.loaded():
+    got = _stacked(terms, sig, shape) if size and terms.n_params and len(shape) == 2 else None
+    if got is None:
         return None
-    names, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx = prog
-    if any(n not in sig for n in names):
-        return None
-    s = np.empty((len(names), size))
-    for i, n in enumerate(names):
-        s[i] = np.broadcast_to(sig[n], shape).reshape(-1)
+    (_, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx), s = got
     p = terms.n_params
     block_end = np.arange(1, p + 1, dtype=np.int64)  # parameters outside every block pair with themselves only
     for b in blocks:

@@ -15,10 +15,10 @@ from tests.physics import basin_truth as bt
 
 def _datasets(monkeypatch, vary: str, k: int) -> dict[str, dict[str, np.ndarray]]:
     """The four datasets of one short ``base`` run on realization ``k`` of sea seed 5, ``vary`` as ``repeat --vary``."""
-    for name in ("_narrowband", "_jonswap"):  # the wrappers _fresh_sea installs are undone after the test
+    for name in ("_narrowband", "_jonswap"):  # the wrappers fresh_sea installs are undone after the test
         monkeypatch.setattr(bt, name, getattr(bt, name))
-    hold = bc._held_sea(argparse.Namespace(vary=vary, case="case2", sea_seed=5, held_sea=0, realizations=2))
-    bc._fresh_sea(1.0, [5, k], hold)
+    hold = bc.held_sea(argparse.Namespace(vary=vary, case="case2", sea_seed=5, held_sea=0, realizations=2))
+    bc.fresh_sea(1.0, [5, k], hold)
     return bt.simulate_runs("base", 1, bt.variant_seed(2015, "base"), length=0.05)[1]
 
 
@@ -47,8 +47,8 @@ def test_freeze_noise_replays_the_first_fits_whiteners(monkeypatch):
         made.append((errs, ar, ar_order))
         return [[np.array([float(len(made))])]], np.ones((1, 3)), np.ones((1, 3))
 
-    monkeypatch.setattr(bc.oe_fit, "_reweighted", estimate)  # restored after the test, with _frozen_noise's wrapper
-    kept = bc._frozen_noise()
+    monkeypatch.setattr(bc.oe_fit, "_reweighted", estimate)  # restored after the test, with frozen_noise's wrapper
+    kept = bc.frozen_noise()
     n = bc.FROZEN_STAGES
     first = [bc.oe_fit._reweighted([np.full((4, 3), k)], None, 2) for k in range(n)]
     later = [bc.oe_fit._reweighted([np.full((4, 3), 100 + k)], None, 2) for k in range(3 * n)]
@@ -61,9 +61,9 @@ def _sensor_datasets(monkeypatch, k: int | None) -> dict[str, dict[str, np.ndarr
     --fresh-sensor``), ``None``: the run's own draw (plain ``repeat``)."""
     for name in ("_narrowband", "_jonswap", "_measure"):  # the wrappers installed below are undone after the test
         monkeypatch.setattr(bt, name, getattr(bt, name))
-    bc._fresh_sea(0.0, [5, 0])
+    bc.fresh_sea(0.0, [5, 0])
     if k is not None:
-        bc._fresh_sensor([5, k])
+        bc.fresh_sensor([5, k])
     return bt.simulate_runs("base", 1, bt.variant_seed(2015, "base"), length=0.05)[1]
 
 

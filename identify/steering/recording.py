@@ -139,19 +139,31 @@ def _swap_misfits(t: np.ndarray, delta: np.ndarray, psi: np.ndarray, r: np.ndarr
     and sampling); a rudder angle in rad as a rate in rad/s does not (it leads the rate by the ship's time
     constants and differs from it in size by K' U/L): swapped columns fit the other way round."""
     ok = np.isfinite(t) & np.isfinite(delta) & np.isfinite(psi) & np.isfinite(r)
-    if ok.sum() < 10:
+    rate = _heading_rate(t, psi, ok)
+    if rate is None:
         return np.inf, np.inf
-    tt, pp = t[ok], np.unwrap(psi[ok])
-    rate = np.diff(pp) / np.diff(tt)
     den = float(rate @ rate)
     if not den > 0:
         return np.inf, np.inf
 
     def misfit(x: np.ndarray) -> float:
-        e = rate - 0.5 * (x[ok][1:] + x[ok][:-1])
+        e = rate - _midpoints(x, ok)
         return float(e @ e) / den
 
     return misfit(delta), misfit(r)
+
+
+def _heading_rate(t: np.ndarray, psi: np.ndarray, ok: np.ndarray) -> np.ndarray | None:
+    """d psi/dt over the intervals between consecutive readings ``ok`` (the heading unwrapped first), or None with
+    fewer than 10 readings: the rate both the swap check and the unit check compare a column with."""
+    if ok.sum() < 10:
+        return None
+    return np.diff(np.unwrap(psi[ok])) / np.diff(t[ok])
+
+
+def _midpoints(x: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """``x`` at the midpoints of the intervals of :func:`_heading_rate` (the mean of each interval's two ends)."""
+    return 0.5 * (x[ok][1:] + x[ok][:-1])
 
 
 def _looks_swapped(a: float, b: float) -> bool:
@@ -188,10 +200,10 @@ def _check_angle_units(p: Path, cols: dict[str, np.ndarray]) -> None:
         return
     t, psi, r = cols["t"], cols["psi"], cols["r"]
     ok = np.isfinite(psi) & np.isfinite(r)
-    if ok.sum() < 10:
+    dpsi = _heading_rate(t, psi, ok)
+    if dpsi is None:
         return
-    dpsi = np.diff(np.unwrap(psi[ok])) / np.diff(t[ok])
-    rm = 0.5 * (r[ok][1:] + r[ok][:-1])
+    rm = _midpoints(r, ok)
     den = float(rm @ rm)
     if den <= 0 or float(dpsi @ dpsi) <= 0:
         return
