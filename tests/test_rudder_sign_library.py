@@ -105,6 +105,30 @@ def test_a_ship_header_naming_another_ship_is_a_named_warning(zz):
     assert "header '# ship: kvlcc2' but --ship is 'model-ship'" in note and "give its profile with --ship" in note
     assert said("Model Ship", model_ship) == said("model-ship", model_ship) == []
     kv = dataclasses.replace(zz, meta={**zz.meta, "ship": "kvlcc2"})
-    assert not [n for n in conform([kv], load_profile("kvlcc2-linear"))[0].notes if "# ship:" in n]
+    assert conform([kv], load_profile("kvlcc2"))[0].notes == conform([zz], load_profile("kvlcc2"))[0].notes
     with pytest.raises(RecordingError, match="tau_x"):
         conform([kv], model_ship)
+
+
+def test_a_ship_header_matches_the_profile_name_exactly_but_for_case_spaces_and_separators():
+    """Stop 62: the match took a prefix of the words, so '# ship: model' passed for --ship model-ship (and
+    'kvlcc2' for 'kvlcc2-linear'). Now the names must be equal after case, spaces, '_' and '-' are normalised;
+    the note is attached once (rudder_in_profile_sign, which conform and api.run both go through) and read back
+    by :func:`ship_notes`, not computed again."""
+    from diagnose.battery import scenario
+    from diagnose.recording_checks import conform, rudder_in_profile_sign
+
+    model_ship = load_profile("model-ship")
+    rec = scenario((), 3).diagnose[0]
+    headed = lambda name: dataclasses.replace(rec, meta={**rec.meta, "ship": name})  # noqa: E731
+    said = lambda r: [n for n in r.notes if "header '# ship: " in n]  # noqa: E731
+    (note,) = said(conform([headed("model")], model_ship)[0])
+    assert "header '# ship: model' but --ship is 'model-ship'" in note
+    for same in ("Model_Ship", "MODEL SHIP", " model - ship "):
+        assert said(conform([headed(same)], model_ship)[0]) == [], same
+    for other in ("model-ship-2", "ship", "modelship"):
+        assert len(said(conform([headed(other)], model_ship)[0])) == 1, other
+    again = rudder_in_profile_sign(conform([headed("model")], model_ship), model_ship)[0]
+    from diagnose.recording_checks import ship_notes
+
+    assert said(again) == ship_notes(again) == [note]  # api.run's pass over a conformed run adds no second note
