@@ -191,14 +191,16 @@ def ship_header_note(rec, profile) -> str | None:
     Not a refusal, as ``shiptrial mass`` warns (``identify.rollmass.api.check_ship``) when a profile the user chose
     meets another header: ``--ship`` is always the user's choice here, and a recording of a truly different ship is
     refused by its content first (its input columns, speed range, Froude scale or sample time: a KVLCC2 run against
-    the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. The names
-    must be equal but for case, spaces, '_' and '-' (stop 62: a prefix let 'model' pass for 'model-ship')."""
+    the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. The header
+    must name the profile or the vessel it models (its ``vessel`` field: kvlcc2-linear is a model of the kvlcc2),
+    equal but for case, spaces, '_' and '-' (stop 62: a prefix let 'model' pass for 'model-ship')."""
     said = str(rec.meta.get("ship", "")).strip()
-    if not said or _ship_words(said) == _ship_words(profile.name):
+    if not said or _ship_words(said) in (_ship_words(profile.name), _ship_words(profile.vessel or profile.name)):
         return None
     return (
         f"{rec.source}: header '# ship: {said}' but --ship is {profile.name!r}: diagnosed against "
-        f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header"
+        f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header "
+        f"(a profile that models {said} says so with vessel = {said!r})"
     )
 
 

@@ -249,6 +249,7 @@ def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, r
     doc = {k: v for k, v in doc.items() if k != "prior"}
     doc.update(
         name=name,
+        vessel=base.vessel or base.name,  # a model of the base's ship: diagnose takes its '# ship:' recordings as ours
         description=f"{base.name} with the steering model identified from {', '.join(records)} ({fit.structure.name}, {fit.estimator})",
         source=f"shiptrial steering (Källström 1977's output error / maximum likelihood) on {base.name}: {src}",
         parameters={"steering": per},
