@@ -263,6 +263,9 @@ def test_save_profile_replaces_only_a_profile_steering_saved_without_force(repor
     from identify.steering.saved_profile import is_saved_profile
 
     assert is_saved_profile(saved) and not is_saved_profile(mine)
+    from primitives.ship import load_profile
+
+    assert load_profile(saved).vessel == "kvlcc2"  # a model of its base's ship: diagnose takes '# ship: kvlcc2' runs
     again = tmp_path / saved.name
     again.write_text(saved.read_text())
     assert _run([*args, str(again)]) == 0 and _run([*args, str(mine), "--force"]) == 0
