@@ -753,6 +753,24 @@ def test_sweep_replaces_only_its_own_table_and_plot_without_force(tmp_path, monk
         assert _run(["sweep", "small.toml", "--out", "results.csv", "--plot", plot]) == 0, capsys.readouterr().err
 
 
+def test_sweep_keep_partial_refuses_a_users_partial_table_before_the_sweep(tmp_path, monkeypatch, capsys):
+    """With ``--keep-partial`` a Ctrl-C writes NAME.partial.csv: a user's file of that name is refused before the
+    sweep, in one line naming it and the fix (another --out names another partial table), untouched; nothing was
+    checked for it before stop 62 (the sweep ran; an interrupt replaced the file)."""
+    monkeypatch.chdir(tmp_path)
+    Path("small.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\nseed = 1\n'
+    )
+    Path("results.partial.csv").write_text("name,score\nalice,3\n")
+    assert _run(["sweep", "small.toml", "--out", "results.csv", "--keep-partial"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "error: --out results.partial.csv: exists and was not written by shiptrial sweep; move it, choose another "
+        "--out, or pass --force to replace it"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.partial.csv", "small.toml"]
+    assert Path("results.partial.csv").read_text() == "name,score\nalice,3\n"
+
+
 def test_yawid_sim_never_replaces_a_recording_it_did_not_write_without_force(tmp_path, monkeypatch, capsys):
     """``yawid-sim trial_run.csv`` over a real recording destroyed it (stop 62, exit 0). Now refused, one line,
     untouched; its own simulation ('# source: shiptrial yawid-sim') is replaced; --force replaces any."""
