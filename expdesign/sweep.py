@@ -82,6 +82,13 @@ def check_outputs(out: str | Path, plot: str | Path | None = None, option: str =
 
 WRITER = "shiptrial sweep"  # the plot's Creator (PNG text chunk, PDF /Creator, SVG dc:creator): how its files are known
 _PLOT_READ_MAX = 64 << 20  # a summary plot is well under a megabyte; a larger file is not one
+# The Creator field as each matplotlib backend writes it: the field, not the words anywhere (a user's diagram of a
+# workflow may well say "shiptrial sweep")
+_PLOT_MARKS = {
+    ".png": b"tEXtCreator\x00" + WRITER.encode(),
+    ".pdf": b"/Creator (" + WRITER.encode() + b")",
+    ".svg": b"<dc:title>" + WRITER.encode() + b"</dc:title>",  # within <dc:creator><cc:Agent>
+}
 
 
 def is_sweep_table(path: Path) -> bool:
@@ -104,7 +111,8 @@ def is_sweep_plot(path: Path) -> bool:
     """A figure :func:`plot_summary` wrote: its Creator metadata names :data:`WRITER` (a PDF keeps it at the end)."""
     if path.stat().st_size > _PLOT_READ_MAX:
         return False
-    return WRITER.encode() in path.read_bytes()
+    mark = _PLOT_MARKS.get(path.suffix.lower())
+    return mark is not None and mark in path.read_bytes()
 
 
 def _read(path: Path) -> dict:

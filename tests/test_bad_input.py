@@ -771,6 +771,20 @@ def test_sweep_keep_partial_refuses_a_users_partial_table_before_the_sweep(tmp_p
     assert Path("results.partial.csv").read_text() == "name,score\nalice,3\n"
 
 
+def test_sweep_knows_its_plot_by_the_creator_field_not_by_the_words_anywhere(tmp_path, monkeypatch, capsys):
+    """A user's workflow diagram (SVG text) that says "shiptrial sweep" is not a sweep's plot: the mark is the Creator
+    field as matplotlib writes it (the review found any file holding the words replaced without --force)."""
+    monkeypatch.chdir(tmp_path)
+    Path("small.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\nseed = 1\n'
+    )
+    mine = '<svg xmlns="http://www.w3.org/2000/svg"><text>plan-trial, then shiptrial sweep</text></svg>\n'
+    Path("workflow.svg").write_text(mine)
+    assert _run(["sweep", "small.toml", "--out", "results.csv", "--plot", "workflow.svg"]) == 2
+    assert "error: --plot workflow.svg: exists and was not written by shiptrial sweep" in capsys.readouterr().err
+    assert Path("workflow.svg").read_text() == mine and not Path("results.csv").exists()
+
+
 def test_yawid_sim_never_replaces_a_recording_it_did_not_write_without_force(tmp_path, monkeypatch, capsys):
     """``yawid-sim trial_run.csv`` over a real recording destroyed it (stop 62, exit 0). Now refused, one line,
     untouched; its own simulation ('# source: shiptrial yawid-sim') is replaced; --force replaces any."""
