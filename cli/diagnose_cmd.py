@@ -110,7 +110,7 @@ def register(app: typer.Typer) -> None:
         from diagnose import report
         from diagnose.api import run
         from diagnose.recording import load_recording
-        from diagnose.recording_checks import conform, ship_header_note, with_conventions
+        from diagnose.recording_checks import conform, ship_notes, with_conventions
         from diagnose.stability import check_baseline
         from primitives.ship import load_profile
 
@@ -139,8 +139,7 @@ def register(app: typer.Typer) -> None:
         fit_recs = load(_split(fit_on)) or None
         val_recs = load(_split(validate)) or None
         for rec in recs + (fit_recs or []) + (val_recs or []):
-            note = ship_header_note(rec, profile)  # also in the report's notes; said here before the minutes of fitting
-            if note:
+            for note in ship_notes(rec):  # what conform attached (also in the report's notes), before the minutes of fitting
                 typer.echo(f"warning: {note}", err=True)
         # the given baseline must simulate the runs it is first simulated on (the --fit-on runs, else
         # the diagnosed and validation runs): when it diverges, the profile or --params is at fault

@@ -218,11 +218,16 @@ def validate_export_options(
     check_out_path(out, kind="file")
 
 
-def validate_sweep_options(*, config: Path, out: Path, plot: Path | None) -> None:
+def validate_sweep_options(*, config: Path, out: Path, plot: Path | None, force: bool = False, partial: bool = False) -> None:
+    """The table and the plot (``--plot``, else beside the table), and with ``partial`` (``--keep-partial``) the
+    names an interrupted sweep writes: each may replace only a sweep's own file unless ``force``."""
     from expdesign.sweep import check_outputs
 
     check_input_file(config, "CONFIG", "a sweep TOML file", "sweep")
-    check_outputs(out, plot)
+    check_outputs(out, plot or out.with_suffix(".png"), replace=force)
+    if partial:
+        cut = out.with_name(f"{out.stem}.partial{out.suffix}")
+        check_outputs(cut, plot or cut.with_suffix(".png"), replace=force)
 
 
 def validate_diagnose_options(

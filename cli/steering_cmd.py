@@ -48,6 +48,11 @@ def register(app: typer.Typer) -> None:
             help="write the --ship profile with the identified model in its linear sway/yaw terms (.toml) for design, "
             "plan-trial and diagnose",
         ),
+        force: bool = typer.Option(
+            False,
+            "--force",
+            help="replace a --save-profile file that no steering --save-profile wrote (default: refuse, naming the file)",
+        ),
     ) -> None:
         """Identify K', T1', T2', T3' (and first-order K', T') with 95 % intervals, AIC over the models and
         estimators, residual whiteness and rudder cross-correlation for prediction and simulation."""
@@ -68,10 +73,18 @@ def register(app: typer.Typer) -> None:
         if out is not None:
             check_replaceable_dir(out)
         if save_profile is not None:
-            from identify.steering.saved_profile import check_base
+            from identify.steering.saved_profile import check_base, is_saved_profile
             from primitives.ship import load_profile
 
-            check_out_file(save_profile, (".toml",), "--save-profile", "profile")
+            check_out_file(
+                save_profile,
+                (".toml",),
+                "--save-profile",
+                "profile",
+                replace=force,
+                ours=is_saved_profile,
+                writer="shiptrial steering --save-profile",
+            )
             check_base(load_profile(ship))
         res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x, noise_corr)
         doc = document(res)

@@ -25,12 +25,15 @@ def register(app: typer.Typer) -> None:
         keep_partial: bool = typer.Option(
             False, "--keep-partial", help="on Ctrl-C, write the finished cells to NAME.partial.csv (default: write nothing)"
         ),
+        force: bool = typer.Option(
+            False, "--force", help="replace a table or plot file that no sweep wrote (default: refuse, naming the file)"
+        ),
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
         from cli.options import validate_sweep_options
         from expdesign.sweep import failed_cells, load_sweep, plot_summary, run_sweep, ship_warnings, write_table
 
-        validate_sweep_options(config=config, out=out, plot=plot)
+        validate_sweep_options(config=config, out=out, plot=plot, force=force, partial=keep_partial)
         cells = load_sweep(config)
         warnings = ship_warnings(cells)
         for w in warnings:  # a model.json's findings the designs leave out, as every command given the file says

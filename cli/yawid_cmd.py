@@ -67,14 +67,19 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Argument(..., help="CSV to write"),
         seed: int = typer.Option(0, "--seed", help="noise seed"),
         noise: float = typer.Option(1.0, "--noise", help="multiple of Table 4.1's noise"),
+        force: bool = typer.Option(
+            False, "--force", help="replace an OUT file that no yawid-sim wrote (default: refuse, naming the file)"
+        ),
     ) -> None:
         """Simulate the 10-minute forward-only identification run of the naval vessel (example input of `yawid`)."""
-        from identify.yawid.api import simulate_file
+        from identify.yawid.api import is_simulated_recording, simulate_file
         from primitives.io import check_out_file
         from primitives.validate import in_range, whole
 
         whole(seed, "--seed", 0, 2**63 - 1)
         in_range(noise, "--noise", 0.0, 100.0, "x Table 4.1's noise levels")
-        check_out_file(out, (".csv",), "OUT", "recording")
+        check_out_file(
+            out, (".csv",), "OUT", "recording", replace=force, ours=is_simulated_recording, writer="shiptrial yawid-sim"
+        )
 
         typer.echo(f"wrote {simulate_file(out, seed, noise)}")

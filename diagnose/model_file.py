@@ -74,6 +74,7 @@ def model_dict(d: Diagnosis) -> dict:
     base.pop("predictor", None)
     base.pop("predictor_names", None)
     base["name"] = f"{prof.name}-diagnosed"
+    base["vessel"] = prof.vessel or prof.name  # still a model of that ship: its recordings' '# ship:' header names it
     base["augmentations"] = [{"effect": f["effect"], "dof": f["dof"], "parameters": f["parameters"]} for f in kept]
     base["diagnosed_model"] = {
         "format": FORMAT,

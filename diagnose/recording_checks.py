@@ -181,8 +181,8 @@ def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
 
 
 def _ship_words(name: str) -> list[str]:
-    """A ship name's words without case and separators: 'KVLCC2 Linear' is ['kvlcc2', 'linear']."""
-    return [w for w in re.split(r"[^0-9a-z]+", name.strip().lower()) if w]
+    """A ship name's words without case, spaces, '_' and '-': 'KVLCC2_Linear' is ['kvlcc2', 'linear']."""
+    return [w for w in re.split(r"[\s_-]+", name.strip().lower()) if w]
 
 
 def ship_header_note(rec, profile) -> str | None:
@@ -191,24 +191,22 @@ def ship_header_note(rec, profile) -> str | None:
     Not a refusal, as ``shiptrial mass`` warns (``identify.rollmass.api.check_ship``) when a profile the user chose
     meets another header: ``--ship`` is always the user's choice here, and a recording of a truly different ship is
     refused by its content first (its input columns, speed range, Froude scale or sample time: a KVLCC2 run against
-    the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. A profile
-    that is one of the header ship's models (header 'kvlcc2', profile 'kvlcc2-linear') is that ship."""
+    the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. The header
+    must name the profile or the vessel it models (its ``vessel`` field: kvlcc2-linear is a model of the kvlcc2),
+    equal but for case, spaces, '_' and '-' (stop 62: a prefix let 'model' pass for 'model-ship')."""
     said = str(rec.meta.get("ship", "")).strip()
-    if not said:
-        return None
-    head, prof = _ship_words(said), _ship_words(profile.name)
-    n = min(len(head), len(prof))
-    if n and head[:n] == prof[:n]:
+    if not said or _ship_words(said) in (_ship_words(profile.name), _ship_words(profile.vessel or profile.name)):
         return None
     return (
         f"{rec.source}: header '# ship: {said}' but --ship is {profile.name!r}: diagnosed against "
-        f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header"
+        f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header "
+        f"(a profile that models {said} says so with vessel = {said!r})"
     )
 
 
-def _with_ship_note(rec, profile):
-    note = ship_header_note(rec, profile)
-    return replace(rec, notes=[*rec.notes, note]) if note and note not in rec.notes else rec
+def ship_notes(rec) -> list[str]:
+    """The ``# ship:`` header notes :func:`rudder_in_profile_sign` attached to ``rec`` (the CLI prints them)."""
+    return [n for n in rec.notes if n.startswith(f"{rec.source}: header '# ship: ")]
 
 
 def check_speed(rec, profile) -> None:
@@ -408,7 +406,8 @@ def rudder_in_profile_sign(recs: list, profile) -> list:
         rec = apply_rudder_sign(rec, profile)
         check_rudder_sign(rec, profile)
         check_yaw_moment_sign(rec, profile)
-        out.append(_with_ship_note(rec, profile))  # api.run's own call: a notebook's diagnosis says it too
+        note = ship_header_note(rec, profile)  # the one place it is attached: conform and api.run both come here
+        out.append(replace(rec, notes=[*rec.notes, note]) if note and note not in rec.notes else rec)
     return out
 
 
@@ -494,7 +493,6 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
         rec = check_sample_time(rec, profile, resample)
         rec = apply_rudder_sign(rec, profile)  # before the limits: a converted rudder is judged as the ship's
         check_inputs(rec, profile)
-        check_rudder_sign(rec, profile)  # a header naming the wrong convention is still caught here
-        check_yaw_moment_sign(rec, profile)
-        out.append(_with_ship_note(rec, profile))
-    return out
+        out.append(rec)
+    # the signs (a header naming the wrong convention is still caught) and the '# ship:' note, as api.run has them
+    return rudder_in_profile_sign(out, profile)

@@ -65,17 +65,54 @@ SWEEP_KEYS = ("ships", "criteria", "mean_subtraction", "library", "speeds", "see
 TABLE_SUFFIXES = (".csv", ".parquet")
 
 
-def check_outputs(out: str | Path, plot: str | Path | None = None, option: str = "--out") -> None:
+def check_outputs(out: str | Path, plot: str | Path | None = None, option: str = "--out", *, replace: bool = True) -> None:
     """Refuse, before any work, a table or plot path whose extension does not name its format
-    (or that cannot be written); ``option`` names the table path in the message."""
+    (or that cannot be written); ``option`` names the table path in the message. ``replace=False``
+    (no ``--force``): an existing file that is not a sweep's own table or plot (:func:`is_sweep_table`,
+    :func:`is_sweep_plot`) is refused too."""
     from primitives.io import FIGURE_SUFFIXES, check_out_file
 
     try:
-        check_out_file(out, TABLE_SUFFIXES, option, "table")
+        check_out_file(out, TABLE_SUFFIXES, option, "table", replace=replace, ours=is_sweep_table, writer=WRITER)
         if plot is not None:
-            check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure")
+            check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
     except UserError as exc:
         raise SweepError(str(exc)) from None
+
+
+WRITER = "shiptrial sweep"  # the plot's Creator (PNG text chunk, PDF /Creator, SVG dc:creator): how its files are known
+_PLOT_READ_MAX = 64 << 20  # a summary plot is well under a megabyte; a larger file is not one
+# The Creator field as each matplotlib backend writes it: the field, not the words anywhere (a user's diagram of a
+# workflow may well say "shiptrial sweep")
+_PLOT_MARKS = {
+    ".png": b"tEXtCreator\x00" + WRITER.encode(),
+    ".pdf": b"/Creator (" + WRITER.encode() + b")",
+    ".svg": b"<dc:title>" + WRITER.encode() + b"</dc:title>",  # within <dc:creator><cc:Agent>
+}
+
+
+def is_sweep_table(path: Path) -> bool:
+    """A table :func:`write_table` wrote: a CSV whose first line is the header row of :data:`COLUMNS`, or a Parquet
+    file holding those columns (read with pyarrow; without it no Parquet table is written either)."""
+    from primitives.io import file_head, first_lines
+
+    if path.suffix.lower() != ".parquet":
+        return first_lines(path, 1) == [",".join(COLUMNS)]
+    if file_head(path, 4) != b"PAR1":
+        return False
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        return False
+    return set(COLUMNS) <= set(pq.read_schema(path).names)
+
+
+def is_sweep_plot(path: Path) -> bool:
+    """A figure :func:`plot_summary` wrote: its Creator metadata names :data:`WRITER` (a PDF keeps it at the end)."""
+    if path.stat().st_size > _PLOT_READ_MAX:
+        return False
+    mark = _PLOT_MARKS.get(path.suffix.lower())
+    return mark is not None and mark in path.read_bytes()
 
 
 def _read(path: Path) -> dict:
@@ -302,6 +339,6 @@ def plot_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
     ax.set_ylabel("efficiency vs uniform mix")
     ax.set_title("Design sweep: gain of the optimized mix over equal shares")
     fig.tight_layout()
-    p = atomic_savefig(fig, path, dpi=110)
+    p = atomic_savefig(fig, path, dpi=110, metadata={"Creator": WRITER})  # how a sweep knows its own plot (check_outputs)
     plt.close(fig)
     return p

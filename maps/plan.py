@@ -60,6 +60,17 @@ def _pieces(v: Any) -> tuple[str, str]:
     return text, text.replace(", ", ",") if isinstance(v, list) else text
 
 
+def _canonical(v: Any) -> str:
+    """``_pieces(v)[1]`` alone: the canonical text, without building the document's text (reading a plan checks
+    its digest and writes nothing, so that text was thrown away)."""
+    if isinstance(v, dict):
+        return "{" + ",".join(f"{json.dumps(k)}:{_canonical(v[k])}" for k in sorted(v) if k not in TIMINGS) + "}"
+    if isinstance(v, list) and not _no_text(v):
+        return "[" + ",".join(_canonical(x) for x in v) + "]"
+    text = json.dumps(v)
+    return text.replace(", ", ",") if isinstance(v, list) else text
+
+
 def _digest(canonical: str) -> str:
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]
 
@@ -68,7 +79,7 @@ def content_digest(d: dict[str, Any]) -> dict[str, str]:
     """Each field of a plan document (but the digest) as the first 16 hex digits of the SHA-256 of its canonical JSON
     (sorted keys, no spaces; the timings left out, so that plans equal but for them have equal digests): a field
     edited by hand after plan-trial wrote the plan no longer matches its own."""
-    return {k: _digest(_pieces(v)[1]) for k, v in d.items() if k != DIGEST_KEY}
+    return {k: _digest(_canonical(v)) for k, v in d.items() if k != DIGEST_KEY}
 
 
 def check_digest(d: dict[str, Any], src: str) -> str | None:

@@ -7,7 +7,7 @@ import math
 import os
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -242,11 +242,23 @@ def read_record_lines(path: str | Path, error: type, what: str, encoding: str = 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
-def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, what: str, *, replace: bool = True) -> Path:
+def check_out_file(
+    path: str | Path,
+    suffixes: tuple[str, ...],
+    option: str,
+    what: str,
+    *,
+    replace: bool = True,
+    ours: Callable[[Path], bool] | None = None,
+    writer: str = "shiptrial",
+) -> Path:
     """An output file whose extension names its format (``what``: "table", "figure") and that can be written.
 
-    ``replace=False``: an existing file is refused, naming ``--force`` (a file the user may have edited by hand,
-    such as a profile TOML, is not replaced unasked); by default the command replaces its output file."""
+    ``replace=False`` (no ``--force``): an existing file is refused in one line naming it and ``--force``, unless
+    ``ours(path)`` recognises it by its content as a file ``writer`` wrote (a sweep table by its header row, a
+    recording by its '# source:' line), as ``export`` replaces only its own files (:mod:`maps.export.ownership`).
+    Without ``ours`` any existing file is refused (a profile the user may have edited by hand). By default
+    (``replace=True``) the command replaces its output file."""
     from primitives.errors import UserError
 
     path = Path(path)
@@ -255,8 +267,33 @@ def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, wha
     if path.suffix.lower() not in suffixes:
         raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
     if not replace and os.path.lexists(path):
-        raise UserError(f"{option} {path}: the file exists; pass --force to replace it, or choose another {option}")
+        if ours is None:
+            raise UserError(f"{option} {path}: the file exists; pass --force to replace it, or choose another {option}")
+        if not _recognised(ours, path):
+            raise UserError(
+                f"{option} {path}: exists and was not written by {writer}; move it, choose another {option}, "
+                "or pass --force to replace it"
+            )
     return check_out_path(path, kind="file", option=option)
+
+
+def _recognised(ours: Callable[[Path], bool], path: Path) -> bool:
+    """``ours(path)``, False for a file that cannot be read (a link to nowhere, no permission): not shown ours."""
+    try:
+        return path.is_file() and bool(ours(path))
+    except (OSError, ValueError):
+        return False
+
+
+def file_head(path: str | Path, size: int = 4096) -> bytes:
+    """The first ``size`` bytes of a file (a writer's marker is looked for there, never in the whole file)."""
+    with open(path, "rb") as f:
+        return f.read(size)
+
+
+def first_lines(path: str | Path, n: int, size: int = 4096) -> list[str]:
+    """The first ``n`` lines of a text file (within its first ``size`` bytes; undecodable bytes replaced)."""
+    return file_head(path, size).decode("utf-8", "replace").lstrip("\ufeff").splitlines()[:n]
 
 
 def _can_create(directory: Path) -> bool:

@@ -30,6 +30,7 @@ from primitives.profile_tables import (
     read_library,
     read_predictor,
     read_prior,
+    read_vessel,
 )
 from primitives.ship import ACTUATORS, BASE_SIGNALS, DOFS, ROLL_DOFS, ROLL_SIGNALS, ProfileError, ShipProfile
 from primitives.terms import TermError, TermSet, signals_used
@@ -52,6 +53,7 @@ __all__ = [
 PROFILE_KEYS = frozenset(
     {
         "name",
+        "vessel",  # the ship the profile models, as a recording's '# ship:' header names it (default: name)
         "description",
         "source",
         "sample_time",
@@ -151,6 +153,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     _check_keys(d, src)
     name = need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
     check_file_stem(name, f"{src}: field 'name'", ProfileError)
+    vessel = read_vessel(d, src)
     sizes = _check_sizes(d, src)
     actuator, inputs = _actuator_inputs(d, src)
     _check_actuator_tables(d, src, actuator)
@@ -200,6 +203,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         prior_std=read_prior(d, src, model, dofs),
         rudder_thrust_share=rudder_share,
         load_warnings=(left_out_warning(src, dropped),) if dropped else (),
+        vessel=vessel,
     )
 
 

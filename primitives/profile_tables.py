@@ -50,6 +50,19 @@ def read_library(d: dict, src: str) -> str:
     return library
 
 
+def read_vessel(d: dict, src: str) -> str:
+    """``vessel``: the ship a profile is a model of, as a recording's ``# ship:`` header names it (``kvlcc2`` for
+    ``kvlcc2-linear``); diagnose accepts a header naming it or the profile (``ship_header_note``). Empty: absent."""
+    vessel = d.get("vessel", "")
+    ok = isinstance(vessel, str) and any(c.isalnum() for c in vessel) and not any(ord(c) < 32 for c in vessel)
+    if "vessel" in d and not ok:
+        raise ProfileError(
+            f"{src}: field 'vessel' must name the ship this profile models as a recording's '# ship:' header does, "
+            f'one line with a letter or digit (e.g. vessel = "kvlcc2"), or be left out; got {vessel!r}'
+        )
+    return vessel.strip()
+
+
 def read_helm_engine(
     d: dict, src: str, actuator: str, inputs: tuple[str, ...], limits: dict, model: TermSet, theta: np.ndarray, cruise: float
 ) -> tuple[Helm, Engine]:

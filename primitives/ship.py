@@ -110,6 +110,9 @@ class ShipProfile:
     # what the commands given this ship must tell the user: a diagnosed model.json's findings the
     # profile cannot hold (primitives.model_json_ship), one line each
     load_warnings: tuple[str, ...] = ()
+    # the vessel this profile is a model of, as a recording's '# ship:' header names it (kvlcc2-linear is a model
+    # of the kvlcc2); empty: the profile's own name (primitives.profile_tables.read_vessel)
+    vessel: str = ""
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -221,6 +224,7 @@ class ShipProfile:
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
             "name": self.name,
+            **({"vessel": self.vessel} if self.vessel and self.vessel != self.name else {}),
             "description": self.description,
             "source": self.source,
             "sample_time": self.sample_time,

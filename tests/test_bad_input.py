@@ -718,3 +718,86 @@ def test_export_never_replaces_a_file_it_did_not_write_without_force(tmp_path, m
     (tmp_path / "mine.gpx").write_text("<gpx>mine</gpx>")
     assert _run(["export", "plan.json", "--format", "gpx", "--out", "mine.gpx"]) == 2
     assert (tmp_path / "mine.gpx").read_text() == "<gpx>mine</gpx>"
+
+
+# Stop 62: output files replaced without a word (docs/bad-input-sweep.md, "Stop 62")
+
+
+def test_sweep_replaces_only_its_own_table_and_plot_without_force(tmp_path, monkeypatch, capsys):
+    """``sweep --out results.csv`` replaced the user's results.csv and the results.png beside it (the default
+    --plot) without a word (stop 62, exit 0). Now refused before any work, one line naming the file and --force,
+    nothing touched; with --force replaced; a sweep's own table and plot (its header row, the plot's Creator) are
+    replaced without it."""
+    monkeypatch.chdir(tmp_path)
+    Path("small.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\n'
+        'mean_subtraction = ["batchwise"]\nseed = 1\n'
+    )
+    Path("results.csv").write_text("name,score\nalice,3\n")
+    Path("results.png").write_bytes(b"my own figure")
+    before = {p: p.read_bytes() for p in tmp_path.iterdir()}
+    assert _run(["sweep", "small.toml", "--out", "results.csv"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "error: --out results.csv: exists and was not written by shiptrial sweep; move it, choose another --out, "
+        "or pass --force to replace it"
+    ]
+    Path("results.csv").unlink()  # the plot beside the table is the user's too
+    assert _run(["sweep", "small.toml", "--out", "results.csv"]) == 2
+    assert "error: --plot results.png: exists and was not written by shiptrial sweep" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in tmp_path.iterdir()} == {k: v for k, v in before.items() if k.name != "results.csv"}
+    assert _run(["sweep", "small.toml", "--out", "results.csv", "--force"]) == 0
+    assert Path("results.png").read_bytes()[:4] == b"\x89PNG"
+    for plot in ("results.png", "fig.svg", "fig.pdf"):  # its own files, each format of the plot
+        assert _run(["sweep", "small.toml", "--out", "results.csv", "--plot", plot]) == 0, capsys.readouterr().err
+        assert _run(["sweep", "small.toml", "--out", "results.csv", "--plot", plot]) == 0, capsys.readouterr().err
+
+
+def test_sweep_keep_partial_refuses_a_users_partial_table_before_the_sweep(tmp_path, monkeypatch, capsys):
+    """With ``--keep-partial`` a Ctrl-C writes NAME.partial.csv: a user's file of that name is refused before the
+    sweep, in one line naming it and the fix (another --out names another partial table), untouched; nothing was
+    checked for it before stop 62 (the sweep ran; an interrupt replaced the file)."""
+    monkeypatch.chdir(tmp_path)
+    Path("small.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\nseed = 1\n'
+    )
+    Path("results.partial.csv").write_text("name,score\nalice,3\n")
+    assert _run(["sweep", "small.toml", "--out", "results.csv", "--keep-partial"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "error: --out results.partial.csv: exists and was not written by shiptrial sweep; move it, choose another "
+        "--out, or pass --force to replace it"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.partial.csv", "small.toml"]
+    assert Path("results.partial.csv").read_text() == "name,score\nalice,3\n"
+
+
+def test_sweep_knows_its_plot_by_the_creator_field_not_by_the_words_anywhere(tmp_path, monkeypatch, capsys):
+    """A user's workflow diagram (SVG text) that says "shiptrial sweep" is not a sweep's plot: the mark is the Creator
+    field as matplotlib writes it (the review found any file holding the words replaced without --force)."""
+    monkeypatch.chdir(tmp_path)
+    Path("small.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\nseed = 1\n'
+    )
+    mine = '<svg xmlns="http://www.w3.org/2000/svg"><text>plan-trial, then shiptrial sweep</text></svg>\n'
+    Path("workflow.svg").write_text(mine)
+    assert _run(["sweep", "small.toml", "--out", "results.csv", "--plot", "workflow.svg"]) == 2
+    assert "error: --plot workflow.svg: exists and was not written by shiptrial sweep" in capsys.readouterr().err
+    assert Path("workflow.svg").read_text() == mine and not Path("results.csv").exists()
+
+
+def test_yawid_sim_never_replaces_a_recording_it_did_not_write_without_force(tmp_path, monkeypatch, capsys):
+    """``yawid-sim trial_run.csv`` over a real recording destroyed it (stop 62, exit 0). Now refused, one line,
+    untouched; its own simulation ('# source: shiptrial yawid-sim') is replaced; --force replaces any."""
+    monkeypatch.chdir(tmp_path)
+    real = "# ship: naval-vessel\n# source: sea trial, bridge logger\nt,r,u,v,delta\n0,0.001,7.9,0.01,0\n"
+    Path("trial_run.csv").write_text(real)
+    assert _run(["yawid-sim", "trial_run.csv"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "error: OUT trial_run.csv: exists and was not written by shiptrial yawid-sim; move it, choose another OUT, "
+        "or pass --force to replace it"
+    ]
+    assert Path("trial_run.csv").read_text() == real
+    assert _run(["yawid-sim", "sim.csv"]) == 0 and _run(["yawid-sim", "sim.csv", "--seed", "2"]) == 0
+    assert "# seed: 2" in Path("sim.csv").read_text()
+    assert _run(["yawid-sim", "trial_run.csv", "--force"]) == 0 and "yawid-sim" in Path("trial_run.csv").read_text()

@@ -195,6 +195,7 @@ def test_exported_profile_and_model_hold_the_weakened_rudder(tmp_path):
     prep = prepare(ship, _kvlcc2_run())
     scored = model.simulate(prep, P)[0]
     exported = profile_from_dict(doc, "model.json")
+    assert (exported.name, exported.vessel) == ("kvlcc2-diagnosed", "kvlcc2")  # its runs' '# ship: kvlcc2' are its
     plain = AugmentedModel(exported, exported.params(), [])
     np.testing.assert_allclose(plain.simulate(prep, plain.p0())[0], scored, rtol=1e-9, atol=1e-12)
     again, P2 = load_model(path)

@@ -15,7 +15,7 @@ import maps.export.staging as staging
 from cli.app import _run
 from maps.export import export_plan
 from maps.export._testing import synthetic_plan
-from maps.export.ownership import MANIFEST, record_written
+from maps.export.ownership import MANIFEST, write_record
 from maps.export.staging import staged_outputs
 from primitives.errors import UserError
 from primitives.io import OUTPUT_MARKER
@@ -51,7 +51,8 @@ def out(tmp_path):
     d = tmp_path / "out"
     d.mkdir()
     (d / "model-ship-trial.gpx").write_bytes(OLD_GPX)  # a file of the same name as an export
-    record_written(d, ["model-ship-trial.gpx"])  # last week's export wrote it (a user's own file is refused: test_bad_input)
+    # last week's directory export wrote it (a user's own file is refused: test_bad_input)
+    write_record(d, {}, [d / "model-ship-trial.gpx"])
     (d / "notes.txt").write_text("crew notes")
     return d
 

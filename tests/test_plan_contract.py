@@ -155,3 +155,28 @@ def test_to_json_is_json_dumps_of_the_document_byte_for_byte():
     )
     untimed = _plan(steps, stats={"zeta": {"b": "x, y: z"}, "alpha": [], "mid": [[1.0, 2.0], [3.0]]})
     assert json.loads(timed.to_json())["digest"] == json.loads(untimed.to_json())["digest"]
+
+
+def test_the_digest_check_builds_the_canonical_text_the_writer_digests():
+    """Stop 62: check_digest builds the canonical text alone (``_canonical``) while the writer builds both texts in
+    one pass (``_pieces``): two codings of one text, and if they ever differ every plan read back is refused as
+    edited. Equal, and equal to json.dumps's canonical form, on every field of a plan and on the corner cases
+    (timings at any depth, strings holding ", " and ": ", mixed lists, nested lists of numbers)."""
+    from maps.export._testing import synthetic_plan
+    from maps.plan import TIMINGS, _canonical, _pieces
+    from primitives.io import to_jsonable
+
+    def untimed(v):
+        if isinstance(v, dict):
+            return {k: untimed(x) for k, x in v.items() if k not in TIMINGS}
+        return [untimed(x) for x in v] if isinstance(v, list) else v
+
+    odd = {
+        "b": [1, 2.5, None, [3, [4, 5]], True],
+        "plan_time_s": 9.0,
+        "a": {"search_s": 1.0, "x": "p, q: r", "y": [{"total_time_s": 2, "z": [False, "s, t"]}, [0.1, {"k": 1}]]},
+    }
+    doc = to_jsonable(synthetic_plan("model-ship", ("straight", "turn_s")).to_dict())
+    for name, v in [("odd", odd), *doc.items()]:
+        canon = json.dumps(untimed(v), sort_keys=True, separators=(",", ":"))
+        assert _canonical(v) == _pieces(v)[1] == canon, name

@@ -243,3 +243,30 @@ def test_swapped_delta_and_r_are_named_and_noisy_correct_records_pass(record, tm
         run["r"] = run["r"] + rng.normal(0, np.radians(0.05), len(run["t"]))
         ss.write_csv(run, tmp_path / "noisy.csv")
         read_records(tmp_path / "noisy.csv")
+
+
+def test_save_profile_replaces_only_a_profile_steering_saved_without_force(reported, record, tmp_path, capsys):
+    """``steering --save-profile my-kvlcc2.toml`` replaced the user's hand-tuned profile after the fit (stop 62,
+    exit 0). Now refused before any work in one line naming the file and --force, the file untouched; the profile
+    steering saved (its first line) is replaced on a new run; --force replaces any."""
+    saved = reported[2]
+    mine = tmp_path / "my-kvlcc2.toml"
+    mine.write_text("# my hand-tuned copy\nname = 'my-kvlcc2'\n")
+    args = ["steering", str(record), "--ship", "kvlcc2", "--save-profile"]
+    assert _run([*args, str(mine)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"error: --save-profile {mine}: exists and was not written by shiptrial steering --save-profile; move it, "
+        "choose another --save-profile, or pass --force to replace it"
+    ]
+    assert mine.read_text() == "# my hand-tuned copy\nname = 'my-kvlcc2'\n"
+    from identify.steering.saved_profile import is_saved_profile
+
+    assert is_saved_profile(saved) and not is_saved_profile(mine)
+    from primitives.ship import load_profile
+
+    assert load_profile(saved).vessel == "kvlcc2"  # a model of its base's ship: diagnose takes '# ship: kvlcc2' runs
+    again = tmp_path / saved.name
+    again.write_text(saved.read_text())
+    assert _run([*args, str(again)]) == 0 and _run([*args, str(mine), "--force"]) == 0
+    assert is_saved_profile(mine)

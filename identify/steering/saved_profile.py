@@ -214,6 +214,17 @@ class SavedProfile:
     source_line: str
 
 
+SAVED_HEADER = "Ship profile written by `shiptrial steering --save-profile`"  # its first line: how it is known
+
+
+def is_saved_profile(path: Path) -> bool:
+    """A profile :func:`steering_profile` wrote: its first line is the comment opening with :data:`SAVED_HEADER`
+    (``--save-profile`` replaces such a file; any other existing file only with ``--force``)."""
+    from primitives.io import first_lines
+
+    return any(line.startswith(f"# {SAVED_HEADER} ") for line in first_lines(path, 1))
+
+
 def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, records: list[str]) -> SavedProfile:
     """The base profile ``ship`` with its linear sway/yaw coefficients replaced by the identified model at the
     trial speed ``V`` (see the module text); checked by reading it back and re-linearising it."""
@@ -238,6 +249,7 @@ def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, r
     doc = {k: v for k, v in doc.items() if k != "prior"}
     doc.update(
         name=name,
+        vessel=base.vessel or base.name,  # a model of the base's ship: diagnose takes its '# ship:' recordings as ours
         description=f"{base.name} with the steering model identified from {', '.join(records)} ({fit.structure.name}, {fit.estimator})",
         source=f"shiptrial steering (Källström 1977's output error / maximum likelihood) on {base.name}: {src}",
         parameters={"steering": per},
@@ -251,7 +263,7 @@ def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, r
             f"--save-profile: profile {base.name!r}'s terms do not reproduce the identified model linearly; nothing written"
         )
     lines = [
-        f"Ship profile written by `shiptrial steering --save-profile` from the base profile {base_name!r}.",
+        f"{SAVED_HEADER} from the base profile {base_name!r}.",
         f"Identified: {fit.structure.name} by {'maximum likelihood' if fit.estimator == 'ml' else 'output error'} on "
         f"{', '.join(records)} at V = {V:.3g} m/s, L = {fit.structure.L:g} m:",
         "  " + ", ".join(f"{k} {e.value:.4g} +- {1.96 * e.std:.2g}" for k, e in nomoto.items()) + " (95 %)",

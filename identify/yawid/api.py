@@ -38,6 +38,18 @@ def identify_file(
     return replace(fit_yaw(data, m, start, prefilter_hz=prefilter_hz), notes=data.notes), start
 
 
+SIM_SOURCE = "shiptrial yawid-sim"  # opens its '# source:' header line: how its recordings are known
+
+
+def is_simulated_recording(path: Path) -> bool:
+    """A recording :func:`simulate_file` wrote: a '# source: shiptrial yawid-sim' line among its header lines (a
+    real recording, never written by it, is not replaced unasked)."""
+    from primitives.io import first_lines
+
+    head = [line for line in first_lines(path, 12) if line.startswith("#")]
+    return any(line.startswith(f"# source: {SIM_SOURCE} ") for line in head)
+
+
 def simulate_file(
     path: str | Path, seed: int = 0, noise_scale: float = 1.0, manoeuvre_seed: int = 0, ship: str = "naval-vessel"
 ) -> Path:
@@ -50,7 +62,7 @@ def simulate_file(
     data = measure(clean, Noise().scaled(noise_scale), 1, seed)
     meta = {
         "ship": profile.name,
-        "source": "shiptrial yawid-sim (the podded-ship MSc thesis, chapter 4 experiment, ours)",
+        "source": f"{SIM_SOURCE} (the podded-ship MSc thesis, chapter 4 experiment, ours)",
         "sample_time": f"{profile.sample_time:g}",
         "noise": f"{noise_scale:g} x Table 4.1",
         "seed": str(seed),

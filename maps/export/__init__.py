@@ -51,9 +51,10 @@ def export_plan(
     ``figures``: a :class:`maps.export.figures.PlanFigures` of the plan to share the card's
     figures with other exports (:func:`export_all` does). The card's files appear together or
     not at all (:func:`maps.export.staging.staged_outputs`). A file of the same name that no export
-    wrote is refused unless ``replace`` (:func:`maps.export.ownership.check_replaceable`).
+    wrote (it carries no export's mark, :func:`maps.export.ownership.is_export_file`) is refused unless
+    ``replace`` (:func:`maps.export.ownership.check_replaceable`); no record is written beside the file.
     """
-    from maps.export.ownership import check_replaceable, record_written
+    from maps.export.ownership import check_replaceable, write_record
     from maps.export.staging import staged_outputs
 
     fmt = fmt.lower()
@@ -63,10 +64,10 @@ def export_plan(
     names = [path.name]
     if fmt == "card" and pdf and path.suffix.lower() != ".pdf":
         names.append(path.with_suffix(".pdf").name)  # write_card's PDF beside the HTML
-    check_replaceable(path.parent, names, replace)
+    recorded = check_replaceable(path.parent, names, replace)
     with staged_outputs(path.parent) as tmp:
         written = _write(plan, fmt, tmp / path.name, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel, figures=figures)
-    record_written(path.parent, written)
+        write_record(tmp, recorded, written)  # only where a record is kept: a file carries its own mark
     return [path.parent / p.name for p in written]
 
 
@@ -122,13 +123,15 @@ def export_all(
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
     from maps.export.figures import PlanFigures
-    from maps.export.ownership import check_replaceable, record_written
+    from maps.export.ownership import check_replaceable, read_record, write_record
     from maps.export.plots import plot_states, plot_track
     from maps.export.staging import staged_outputs
 
     check_plan(plan)
     if staged:  # unstaged, the caller builds out_dir whole: nothing of the user's is in it
-        check_replaceable(out_dir, export_names(plan, plots=plots, pdf=pdf), replace)
+        recorded = check_replaceable(out_dir, export_names(plan, plots=plots, pdf=pdf), replace) or {}
+    else:
+        recorded = read_record(out_dir) or {}
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
@@ -145,7 +148,7 @@ def export_all(
             stem = default_path(plan, "csv", tmp).with_suffix("")
             out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map, figures=figs)
             out["states_png"] = plot_states(plan, f"{stem}-states.png", figures=figs)
-    record_written(out_dir, out.values())
+        write_record(tmp, recorded, out.values())  # published with the files: never one without the other
     return {k: Path(out_dir) / p.name for k, p in out.items()}
 
 

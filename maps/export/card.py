@@ -454,7 +454,7 @@ def card_html(
         figs = figures or own
         map_png, states_png = figs.png("track"), figs.png("states")
     h = [
-        f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
+        f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><meta name='generator' content='shiptrial'><title>Sea trial card {e(vname)}</title>",
         f"<style>{_CSS}</style></head><body>",
         f"<h1>Sea trial card: {e(vname)}</h1>",
     ]

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_slice, vessel_name
+from maps.export._common import KN_PER_MPS, TOOL, check_plan, step_abort, step_slice, vessel_name
 from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
@@ -233,6 +233,7 @@ def plan_geojson(
     """
     check_plan(plan)
     summary = {
+        "generator": TOOL,  # first: an export knows its own file by it (maps.export.ownership.is_export_file)
         "kind": "trial",
         "ship": plan.ship,
         "vessel_name": vessel_name(plan),
