@@ -347,3 +347,24 @@ def test_pdf_states_page_margin_follows_wide_tick_labels(scale, tmp_path):
     words = re.findall(r'xMin="(-?[\d.]+)" yMin="-?[\d.]+" xMax="(-?[\d.]+)" yMax="-?[\d.]+">([^<]*)<', last)
     assert "tau_x" in [w for _, _, w in words] and max(len(w) for _, _, w in words if w.startswith("\u2212")) >= 8
     assert all(float(a) >= 0.0 and float(b) <= page_w for a, b, _ in words)
+
+
+@pytest.mark.parametrize("n_manoeuvres", [3, 8, 12])
+def test_manoeuvre_colours_never_read_as_run_in_transit_or_chart(n_manoeuvres: int) -> None:
+    """A plan's third manoeuvre was tab10's green, 40 (8-bit RGB) from the run-ins' dashed green,
+    and its eighth tab10's grey, 9 from the transits': on the card's map and states page a master
+    could not tell a zig-zag from its run-in (stop 62's walk through the README's Quick start)."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import LAND_COLOUR, RUN_IN_COLOUR, SEA_ROOM_COLOUR, TRANSIT_COLOUR, WATER_COLOUR, primitive_colours
+
+    steps = [SimpleNamespace(primitive="runin", segment="run-in"), SimpleNamespace(primitive="transit", segment="transit")]
+    steps += [SimpleNamespace(primitive=f"m{i}", segment="informative") for i in range(n_manoeuvres)]
+    colours = primitive_colours(SimpleNamespace(steps=steps))
+    reserved = np.array([to_rgb(c) for c in (RUN_IN_COLOUR, TRANSIT_COLOUR, SEA_ROOM_COLOUR, WATER_COLOUR, LAND_COLOUR)]) * 255.0
+    drawn = np.array([to_rgb(colours[f"m{i}"]) for i in range(n_manoeuvres)]) * 255.0
+    nearest = np.linalg.norm(drawn[:, None, :] - reserved[None, :, :], axis=2).min(axis=1)
+    assert nearest.min() >= 50.0, f"manoeuvre colour {int(nearest.argmin())} is {nearest.min():.0f} from a reserved colour"
+    assert len({tuple(np.round(c, 3)) for c in drawn}) == n_manoeuvres  # one colour per manoeuvre
