@@ -62,10 +62,16 @@ def _m(metres: float) -> str:
 def abort_criteria(plan: Plan) -> list[str]:
     """Plan-wide abort criteria in plain words."""
     w = plan.max_wind_mps
-    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "none within the map"
+    # an open-water map has no obstacle to measure against: "planned minimum none within the map"
+    # read as a missing figure on the card, so say what the chart shows instead
+    clear = (
+        f"planned minimum {plan.min_clearance_m:.0f} m"
+        if math.isfinite(plan.min_clearance_m)
+        else "the chart shows none near the track"
+    )
     return [
         f"true wind above {w * KN_PER_MPS:.0f} kn (Beaufort {beaufort(w)})",
-        f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m (planned minimum {clear})",
+        f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m ({clear})",
         "the ship leaves the corridor of the leg (cross-track limits below) or traffic comes within the sea room",
     ]
 
@@ -252,7 +258,20 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
 
 # -- PDF pages --------------------------------------------------------------------------------
 
-TABLE_COLS = ["#", "phase", "manoeuvre (design code)", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
+# heading and speed are the ship's at the step's start waypoint: headed "speed" alone, "steady
+# approach at 2.2 kn | 5.8 kn" and "turn on the spot | 5.8 kn" read as contradictions
+TABLE_COLS = [
+    "#",
+    "phase",
+    "manoeuvre (design code)",
+    "WP",
+    "start (UTC)",
+    "position",
+    "hdg at WP",
+    "speed at WP",
+    "time",
+    "sea room",
+]
 TABLE_WIDTHS = [0.03, 0.07, 0.22, 0.045, 0.15, 0.205, 0.04, 0.055, 0.045, 0.12]
 ROWS_PER_PAGE = 44
 
