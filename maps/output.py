@@ -33,18 +33,17 @@ def _plan_box(plan: Plan, sea: SeaMap, ax: Any) -> tuple[float, float, float, fl
 def _plan_track(plan: Plan, ax: Any, plt: Any) -> None:
     """The track (informative steps coloured by primitive, run-ins dashed green, transit grey),
     execute points, start and goal, labelled for the legend."""
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    names = sorted({s.primitive for s in plan.steps if s.segment == "informative"})
+    # the card's colours (maps.export.mapplot), which skip the ones that read as a run-in or a
+    # transit: tab10's green here drew the third manoeuvre like the run-ins' dashed green
+    from maps.export.mapplot import primitive_colours, step_colour
+
+    colours = primitive_colours(plan)
     seen: set[str] = set()
     for s in plan.steps:
         sel = plan.step_of_sample == s.index
         seg = s.segment
         key = s.primitive if seg == "informative" else seg
-        col = (
-            colors[names.index(s.primitive) % 10]
-            if seg == "informative"
-            else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
-        )
+        col = step_colour(plan, s, colours)
         ax.plot(
             plan.track[sel, 1],
             plan.track[sel, 0],

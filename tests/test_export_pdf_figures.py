@@ -368,3 +368,36 @@ def test_manoeuvre_colours_never_read_as_run_in_transit_or_chart(n_manoeuvres: i
     nearest = np.linalg.norm(drawn[:, None, :] - reserved[None, :, :], axis=2).min(axis=1)
     assert nearest.min() >= 50.0, f"manoeuvre colour {int(nearest.argmin())} is {nearest.min():.0f} from a reserved colour"
     assert len({tuple(np.round(c, 3)) for c in drawn}) == n_manoeuvres  # one colour per manoeuvre
+
+
+def test_plan_png_draws_each_manoeuvre_in_the_cards_colour_never_the_run_ins():
+    """plan.png (maps.output) drew its third manoeuvre in tab10's green beside the run-ins' dashed
+    #1b7f3b, and by sorted name where the card colours by first appearance (stop 62's walk)."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import RUN_IN_COLOUR, primitive_colours
+    from maps.output import _plan_track
+
+    names = ["zz", "acc", "crab", "turn"]  # sailed in this order, not sorted
+    steps = [SimpleNamespace(index=0, primitive="zz", segment="run-in", execute=False, entry_x=0.0, entry_y=0.0)]
+    steps += [
+        SimpleNamespace(index=i + 1, primitive=n, segment="informative", execute=True, entry_x=0.0, entry_y=0.0)
+        for i, n in enumerate(names)
+    ]
+    plan = SimpleNamespace(steps=steps, step_of_sample=np.repeat(np.arange(5), 2), track=np.zeros((10, 3)))
+    drawn: dict[str, tuple] = {}
+
+    class Ax:
+        def plot(self, *args, color=None, label=None, **kw):
+            if label in names:
+                drawn[label] = to_rgb(color)
+
+    import matplotlib.pyplot as plt
+
+    _plan_track(plan, Ax(), plt)
+    card = primitive_colours(plan)
+    assert {n: to_rgb(card[n]) for n in names} == drawn
+    run_in = np.array(to_rgb(RUN_IN_COLOUR))
+    assert min(np.linalg.norm(np.array(c) - run_in) * 255 for c in drawn.values()) >= 50

@@ -256,22 +256,16 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
     ]
 
 
+# heading and speed in the steps table are the ship's at the step's start waypoint: unsaid, "steady
+# approach at 2.2 kn | 5.8 kn" and "turn on the spot | 5.8 kn" read as contradictions (a one-line
+# note, not longer column heads: a taller head row pushed the PDF's 44th row to the next page)
+STEPS_NOTE = "hdg and speed: the ship's at the step's start waypoint (WP)"
+STEPS_NOTE_PDF = "hdg, speed at start WP"  # in the PDF table's title, which is not wrapped
+
+
 # -- PDF pages --------------------------------------------------------------------------------
 
-# heading and speed are the ship's at the step's start waypoint: headed "speed" alone, "steady
-# approach at 2.2 kn | 5.8 kn" and "turn on the spot | 5.8 kn" read as contradictions
-TABLE_COLS = [
-    "#",
-    "phase",
-    "manoeuvre (design code)",
-    "WP",
-    "start (UTC)",
-    "position",
-    "hdg at WP",
-    "speed at WP",
-    "time",
-    "sea room",
-]
+TABLE_COLS = ["#", "phase", "manoeuvre (design code)", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
 TABLE_WIDTHS = [0.03, 0.07, 0.22, 0.045, 0.15, 0.205, 0.04, 0.055, 0.045, 0.12]
 ROWS_PER_PAGE = 44
 
@@ -494,6 +488,7 @@ def card_html(
     )
     h.append(_img(map_png, "map of the planned track"))
     h.append("<h2>Steps in sailing order</h2>")
+    h.append(f"<p>{e(STEPS_NOTE)}.</p>")
     h.append(_html_table(TABLE_COLS, _table_rows(sheets), "steps"))
     h.append("<h2>Orders per step</h2>")
     h += [_html_step(s) for s in sheets]
