@@ -401,3 +401,22 @@ def test_plan_png_draws_each_manoeuvre_in_the_cards_colour_never_the_run_ins():
     assert {n: to_rgb(card[n]) for n in names} == drawn
     run_in = np.array(to_rgb(RUN_IN_COLOUR))
     assert min(np.linalg.norm(np.array(c) - run_in) * 255 for c in drawn.values()) >= 50
+
+
+def test_a_plan_of_up_to_seven_manoeuvres_gets_no_colour_near_the_transit_or_run_in() -> None:
+    """The states page draws each step as a 12 %-alpha band: tab10's brown (62 from the transit
+    grey in 8-bit RGB) made a band CIELAB dE 2.6 from the transit's, so the Quick start's fifth
+    manoeuvre (tau20, steps 16 and 19) read as a transit; main's green (40 from the run-in) the
+    same for its third. Up to seven manoeuvres take only colours at least 65 away."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import RUN_IN_COLOUR, TRANSIT_COLOUR, primitive_colours
+
+    steps = [SimpleNamespace(primitive=f"m{i}", segment="informative") for i in range(7)]
+    colours = primitive_colours(SimpleNamespace(steps=steps))
+    near = np.array([to_rgb(RUN_IN_COLOUR), to_rgb(TRANSIT_COLOUR)]) * 255.0
+    for i in range(7):
+        d = np.linalg.norm(near - np.array(to_rgb(colours[f"m{i}"])) * 255.0, axis=1).min()
+        assert d >= 65.0, f"manoeuvre {i + 1} is {d:.0f} from the run-in or transit colour"

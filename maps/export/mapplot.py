@@ -111,22 +111,27 @@ def depth_layers(chart: Any) -> tuple[list[tuple[Any, np.ndarray]], np.ndarray, 
 # A manoeuvre's colour must not read as a run-in (dashed green), a transit (grey) or the chart
 # underneath: tab10's green (#2ca02c, 40 from RUN_IN_COLOUR) made the third manoeuvre of a plan
 # look like its own run-in on the card, and tab10's grey the eighth like a transit. Minimum
-# Euclidean distance in 8-bit RGB; 50 keeps tab10's brown (62 from the transit grey).
+# Euclidean distance in 8-bit RGB; 50 keeps tab10's brown (62 from the transit grey), but behind
+# every colour at least CLEAR_COLOUR_DISTANCE away: on the states page the steps are 12 %-alpha
+# bands, where brown's is CIELAB dE 2.6 from the transit's (the green one the rule removes: 3.2),
+# so the Quick start's fifth manoeuvre read as a transit. Only a plan of 8 manoeuvres gets brown.
 RESERVED_COLOURS = (RUN_IN_COLOUR, TRANSIT_COLOUR, SEA_ROOM_COLOUR, WATER_COLOUR, LAND_COLOUR)
 MIN_COLOUR_DISTANCE = 50.0
+CLEAR_COLOUR_DISTANCE = 65.0
 
 
 def manoeuvre_palette(name: str) -> list[tuple[float, float, float, float]]:
     """The colours of matplotlib's qualitative map ``name`` (tab10, tab20) at least
-    MIN_COLOUR_DISTANCE from every RESERVED_COLOURS entry, in the map's order."""
+    MIN_COLOUR_DISTANCE from every RESERVED_COLOURS entry: first, in the map's order, those at
+    least CLEAR_COLOUR_DISTANCE away, then the others."""
     cmap = matplotlib.colormaps[name]  # pyplot.get_cmap's, without pyplot
     reserved = np.array([matplotlib.colors.to_rgb(c) for c in RESERVED_COLOURS]) * 255.0
-    out = []
+    kept = []
     for i in range(cmap.N):
-        rgb = np.array(cmap(i)[:3]) * 255.0
-        if np.min(np.linalg.norm(reserved - rgb, axis=1)) >= MIN_COLOUR_DISTANCE:
-            out.append(cmap(i))
-    return out
+        d = float(np.min(np.linalg.norm(reserved - np.array(cmap(i)[:3]) * 255.0, axis=1)))
+        if d >= MIN_COLOUR_DISTANCE:
+            kept.append((d < CLEAR_COLOUR_DISTANCE, cmap(i)))
+    return [c for _, c in sorted(kept, key=lambda k: k[0])]  # stable: the map's order within each group
 
 
 def primitive_colours(plan: Plan) -> dict[str, Any]:
