@@ -30,7 +30,7 @@ def _plan_box(plan: Plan, sea: SeaMap, ax: Any) -> tuple[float, float, float, fl
     return box
 
 
-def _plan_track(plan: Plan, ax: Any, plt: Any) -> None:
+def _plan_track(plan: Plan, ax: Any) -> None:
     """The track (informative steps coloured by primitive, run-ins dashed green, transit grey),
     execute points, start and goal, labelled for the legend."""
     # the card's colours (maps.export.mapplot), which skip the ones that read as a run-in or a
@@ -93,7 +93,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     ]
     ax.add_collection(PolyCollection(rings, facecolors="#d8c8a0", edgecolors="#8a7a50", linewidths=0.5, zorder=1))
     if plan.track.size:
-        _plan_track(plan, ax, plt)
+        _plan_track(plan, ax)
     ax.set_xlim(box[1], box[3])
     ax.set_ylim(box[0], box[2])
     ax.set_aspect("equal")

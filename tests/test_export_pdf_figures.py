@@ -394,9 +394,7 @@ def test_plan_png_draws_each_manoeuvre_in_the_cards_colour_never_the_run_ins():
             if label in names:
                 drawn[label] = to_rgb(color)
 
-    import matplotlib.pyplot as plt
-
-    _plan_track(plan, Ax(), plt)
+    _plan_track(plan, Ax())
     card = primitive_colours(plan)
     assert {n: to_rgb(card[n]) for n in names} == drawn
     run_in = np.array(to_rgb(RUN_IN_COLOUR))
