@@ -280,7 +280,8 @@ def finding_lines(d: Diagnosis) -> list[str]:
         lines.append(
             f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
             "the noise): no candidate improves the fit significantly and on held-out data, so the cause lies "
-            "outside the library or these recordings cannot separate it (see the screened candidates in the JSON)."
+            "outside the library or these recordings cannot separate it (the screened candidates: --json, or "
+            "diagnosis.json with --out DIR)."
         )
     else:
         lines.append("Findings (strongest first):")

@@ -153,6 +153,49 @@ def _check_speeds(speeds: list, profiles: dict[str, Any], path: Path) -> None:
                 )
 
 
+def held_input(profile: Any, speed: float) -> tuple[str, float, float] | None:
+    """The first input ``profile`` would need beyond its limit to hold ``speed`` m/s straight
+    ahead (the steady surge force of primitives.maneuvers.steady_forces, allocated to its inputs)
+    as (name, needed, limit), or None when the speed is within reach or the ship's actuators have
+    no steady-force allocation (rudder and propeller: the cell says so itself)."""
+    from primitives.steady_forces import STEADY_FORCE_ACTUATORS, steady_forces
+
+    if profile.actuator not in STEADY_FORCE_ACTUATORS:
+        return None
+    need = profile.allocate(*steady_forces(profile, speed, 0.0, 0.0))[0]
+    for name, a, b in zip(profile.inputs, need, profile.clip_inputs(need)):
+        if abs(a - b) > 1e-6 * max(abs(a), 1.0):
+            return name, float(a), float(b)
+    return None
+
+
+def top_speed(profile: Any, below: float) -> float:
+    """The highest speed under ``below`` m/s that ``profile`` holds within its input limits
+    (bisection on :func:`held_input`, 30 halvings: 1e-9 of ``below``)."""
+    lo, hi = 0.0, below
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if held_input(profile, mid) else (mid, hi)
+    return lo
+
+
+def _check_top_speeds(speeds: list, profiles: dict[str, Any], path: Path) -> None:
+    """Refuse a speed a ship cannot sail: its standard trials saturate an input in every step, so
+    the cell either fails (with batchwise mean subtraction the saturated input is constant in every
+    primitive: "cannot identify ['Xtau']", whose hint to add a manoeuvre misleads) or yields a
+    design for trials the ship cannot make (model-ship at 3 m/s needs tau_x 19286 of 6000)."""
+    for s in speeds:
+        for sh, prof in profiles.items():
+            over = None if s is None else held_input(prof, float(s))
+            if over:
+                v_max = top_speed(prof, float(s))
+                raise SweepError(
+                    f"{path}: field 'sweep.speeds': {s!r} m/s is too fast for {sh!r} (straight ahead it needs "
+                    f"{over[0]} = {over[1]:.4g}, beyond its limit {over[2]:g}); give speeds <= {v_max:.3g} m/s, "
+                    "or sweep the faster ships in a config of their own"
+                )
+
+
 def load_sweep(path: str | Path) -> list[Cell]:
     """Parse and validate a sweep file into its cells (grid order)."""
     path = Path(path)
@@ -198,6 +241,7 @@ def load_sweep(path: str | Path) -> list[Cell]:
         raise SweepError(f"{path}: field 'sweep.speeds' applies to library = \"standard\" only; remove it or set the library")
     cells = [(sh, library, sp, c, m) for sh in ships for sp in speeds for c in criteria for m in modes]
     check_sweep_size(len(cells), str(path), SweepError)
+    _check_top_speeds(speeds, profiles, path)
     seeds = task_seeds(seed, len(cells))
     return [Cell(sh, lib, None if sp is None else float(sp), c, m, sd) for (sh, lib, sp, c, m), sd in zip(cells, seeds)]
 

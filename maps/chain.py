@@ -28,6 +28,7 @@ from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.graphsearch import Rows, reached
+from maps.headings import heading_rounding_warning
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.planoptions import PlanOptions
@@ -308,10 +309,8 @@ def build_lattice(
     table = heading_table(K)
     h_start = nearest_heading(spsi or 0.0, table)
     warnings = [*profile.load_warnings, *sea.warnings]  # a model.json's findings its profile cannot hold first
-    if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
-        warnings.append(
-            f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg"
-        )
+    if spsi is not None and (w := heading_rounding_warning(spsi, float(table[h_start]))):
+        warnings.append(w)
     too_big = too_big_for_water(sea, win, prims, table, o.margin) if prefilter else {}
     moves, names, targets, notes = _motion_set(
         profile, [p for p in prims if p.name not in too_big], counts, res, o, {} if cache is None else cache

@@ -24,3 +24,19 @@ def nearest_heading(psi: float, table: np.ndarray) -> int:
 def wrap(a: float) -> float:
     """An angle wrapped to [-pi, pi)."""
     return float((a + np.pi) % (2 * np.pi) - np.pi)
+
+
+HEADING_NOTICE_DEG = 0.05  # half the 0.1 deg a heading is given and printed in
+
+
+def heading_rounding_warning(psi: float, lattice_psi: float) -> str | None:
+    """The warning that the start heading ``psi`` (rad) was moved to the lattice heading
+    ``lattice_psi`` (rad), or None when they differ by less than HEADING_NOTICE_DEG: the resume
+    example's --from 116.6 against the lattice's atan(2) + 90 deg = 116.565 deg warned 'rounded 116.6
+    to 116.6 deg', a rounding below any compass's resolution."""
+    d = float(np.degrees(abs((psi - lattice_psi + np.pi) % (2 * np.pi) - np.pi)))
+    if d < HEADING_NOTICE_DEG:
+        return None
+    return (
+        f"start heading {np.degrees(psi):.1f} deg rounded to the lattice heading {np.degrees(lattice_psi):.1f} deg ({d:.1f} deg)"
+    )

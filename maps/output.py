@@ -30,21 +30,20 @@ def _plan_box(plan: Plan, sea: SeaMap, ax: Any) -> tuple[float, float, float, fl
     return box
 
 
-def _plan_track(plan: Plan, ax: Any, plt: Any) -> None:
+def _plan_track(plan: Plan, ax: Any) -> None:
     """The track (informative steps coloured by primitive, run-ins dashed green, transit grey),
     execute points, start and goal, labelled for the legend."""
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    names = sorted({s.primitive for s in plan.steps if s.segment == "informative"})
+    # the card's colours (maps.export.mapplot), which skip the ones that read as a run-in or a
+    # transit: tab10's green here drew the third manoeuvre like the run-ins' dashed green
+    from maps.export.mapplot import primitive_colours, step_colour
+
+    colours = primitive_colours(plan)
     seen: set[str] = set()
     for s in plan.steps:
         sel = plan.step_of_sample == s.index
         seg = s.segment
         key = s.primitive if seg == "informative" else seg
-        col = (
-            colors[names.index(s.primitive) % 10]
-            if seg == "informative"
-            else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
-        )
+        col = step_colour(plan, s, colours)
         ax.plot(
             plan.track[sel, 1],
             plan.track[sel, 0],
@@ -94,7 +93,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     ]
     ax.add_collection(PolyCollection(rings, facecolors="#d8c8a0", edgecolors="#8a7a50", linewidths=0.5, zorder=1))
     if plan.track.size:
-        _plan_track(plan, ax, plt)
+        _plan_track(plan, ax)
     ax.set_xlim(box[1], box[3])
     ax.set_ylim(box[0], box[2])
     ax.set_aspect("equal")

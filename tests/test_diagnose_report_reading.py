@@ -256,3 +256,15 @@ def test_report_defines_its_measures_and_splits_the_gain(damping):
     ):
         assert text.count(term) == 1, term
     assert "its own share" in text and "Where the gain comes from" in text and "before the first finding" in text
+
+
+def test_no_finding_line_says_where_the_screened_candidates_are():
+    """'see the screened candidates in the JSON' after the README's KVLCC2 example, which asks for
+    no JSON and writes no file: a new user cannot find that JSON (stop 62's walk)."""
+    d = SimpleNamespace(
+        cannot_tell="", explained=False, findings=[], structure=[], untestable=[],
+        location={"rms_over_noise": {"surge": 9.0, "sway": 5.3, "yaw": 8.6}},
+    )  # fmt: skip
+    line = report.finding_lines(d)[0]
+    assert "surge residual is 9 x the noise" in line
+    assert "--json, or diagnosis.json with --out DIR" in line

@@ -277,3 +277,25 @@ def test_design_table_lists_only_what_the_design_uses():
     # a plan.json written before the split (zero weights among the weights) reads the same way
     old = dict(rec, weights={**rec["weights"], **dict.fromkeys(rec["not_used"], 0.0)}, not_used=[])
     assert design_rows(replace(plan, design=old))[1] == rows
+
+
+def test_abort_clearance_on_an_open_water_map_says_what_the_chart_shows():
+    """On the open-sea map (no obstacle) the card's abort box read 'below 20 m (planned minimum
+    none within the map)': a master reads a missing figure (stop 62's walk, the README's coaster)."""
+    from types import SimpleNamespace
+
+    from maps.export.card import abort_criteria
+
+    open_water = abort_criteria(SimpleNamespace(max_wind_mps=10.0, min_clearance_m=float("inf"), margin_m=20.0))
+    assert "below 20 m (the chart shows none near the track)" in open_water[1]
+    assert "minimum none" not in open_water[1]
+    charted = abort_criteria(SimpleNamespace(max_wind_mps=10.0, min_clearance_m=50.6, margin_m=20.0))
+    assert "below 20 m (planned minimum 51 m)" in charted[1]
+
+
+def test_step_table_says_heading_and_speed_are_at_the_start_waypoint(azi_plan):
+    """The steps table's 'speed' column is the speed at the step's start waypoint: a run-in
+    'steady approach at 2.2 kn' showed 'speed 5.8 kn', a spot turn 5.8 kn (stop 62's walk)."""
+    html = card_html(azi_plan, start=START)
+    after = html.split("<h2>Steps in sailing order</h2>", 1)[1]
+    assert after.lstrip().startswith("<p>hdg and speed: the ship&#x27;s at the step&#x27;s start waypoint (WP).</p>")

@@ -347,3 +347,74 @@ def test_pdf_states_page_margin_follows_wide_tick_labels(scale, tmp_path):
     words = re.findall(r'xMin="(-?[\d.]+)" yMin="-?[\d.]+" xMax="(-?[\d.]+)" yMax="-?[\d.]+">([^<]*)<', last)
     assert "tau_x" in [w for _, _, w in words] and max(len(w) for _, _, w in words if w.startswith("\u2212")) >= 8
     assert all(float(a) >= 0.0 and float(b) <= page_w for a, b, _ in words)
+
+
+@pytest.mark.parametrize("n_manoeuvres", [3, 8, 12])
+def test_manoeuvre_colours_never_read_as_run_in_transit_or_chart(n_manoeuvres: int) -> None:
+    """A plan's third manoeuvre was tab10's green, 40 (8-bit RGB) from the run-ins' dashed green,
+    and its eighth tab10's grey, 9 from the transits': on the card's map and states page a master
+    could not tell a zig-zag from its run-in (stop 62's walk through the README's Quick start)."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import LAND_COLOUR, RUN_IN_COLOUR, SEA_ROOM_COLOUR, TRANSIT_COLOUR, WATER_COLOUR, primitive_colours
+
+    steps = [SimpleNamespace(primitive="runin", segment="run-in"), SimpleNamespace(primitive="transit", segment="transit")]
+    steps += [SimpleNamespace(primitive=f"m{i}", segment="informative") for i in range(n_manoeuvres)]
+    colours = primitive_colours(SimpleNamespace(steps=steps))
+    reserved = np.array([to_rgb(c) for c in (RUN_IN_COLOUR, TRANSIT_COLOUR, SEA_ROOM_COLOUR, WATER_COLOUR, LAND_COLOUR)]) * 255.0
+    drawn = np.array([to_rgb(colours[f"m{i}"]) for i in range(n_manoeuvres)]) * 255.0
+    nearest = np.linalg.norm(drawn[:, None, :] - reserved[None, :, :], axis=2).min(axis=1)
+    assert nearest.min() >= 50.0, f"manoeuvre colour {int(nearest.argmin())} is {nearest.min():.0f} from a reserved colour"
+    assert len({tuple(np.round(c, 3)) for c in drawn}) == n_manoeuvres  # one colour per manoeuvre
+
+
+def test_plan_png_draws_each_manoeuvre_in_the_cards_colour_never_the_run_ins():
+    """plan.png (maps.output) drew its third manoeuvre in tab10's green beside the run-ins' dashed
+    #1b7f3b, and by sorted name where the card colours by first appearance (stop 62's walk)."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import RUN_IN_COLOUR, primitive_colours
+    from maps.output import _plan_track
+
+    names = ["zz", "acc", "crab", "turn"]  # sailed in this order, not sorted
+    steps = [SimpleNamespace(index=0, primitive="zz", segment="run-in", execute=False, entry_x=0.0, entry_y=0.0)]
+    steps += [
+        SimpleNamespace(index=i + 1, primitive=n, segment="informative", execute=True, entry_x=0.0, entry_y=0.0)
+        for i, n in enumerate(names)
+    ]
+    plan = SimpleNamespace(steps=steps, step_of_sample=np.repeat(np.arange(5), 2), track=np.zeros((10, 3)))
+    drawn: dict[str, tuple] = {}
+
+    class Ax:
+        def plot(self, *args, color=None, label=None, **kw):
+            if label in names:
+                drawn[label] = to_rgb(color)
+
+    _plan_track(plan, Ax())
+    card = primitive_colours(plan)
+    assert {n: to_rgb(card[n]) for n in names} == drawn
+    run_in = np.array(to_rgb(RUN_IN_COLOUR))
+    assert min(np.linalg.norm(np.array(c) - run_in) * 255 for c in drawn.values()) >= 50
+
+
+def test_a_plan_of_up_to_seven_manoeuvres_gets_no_colour_near_the_transit_or_run_in() -> None:
+    """The states page draws each step as a 12 %-alpha band: tab10's brown (62 from the transit
+    grey in 8-bit RGB) made a band CIELAB dE 2.6 from the transit's, so the Quick start's fifth
+    manoeuvre (tau20, steps 16 and 19) read as a transit; main's green (40 from the run-in) the
+    same for its third. Up to seven manoeuvres take only colours at least 65 away."""
+    from types import SimpleNamespace
+
+    from matplotlib.colors import to_rgb
+
+    from maps.export.mapplot import RUN_IN_COLOUR, TRANSIT_COLOUR, primitive_colours
+
+    steps = [SimpleNamespace(primitive=f"m{i}", segment="informative") for i in range(7)]
+    colours = primitive_colours(SimpleNamespace(steps=steps))
+    near = np.array([to_rgb(RUN_IN_COLOUR), to_rgb(TRANSIT_COLOUR)]) * 255.0
+    for i in range(7):
+        d = np.linalg.norm(near - np.array(to_rgb(colours[f"m{i}"])) * 255.0, axis=1).min()
+        assert d >= 65.0, f"manoeuvre {i + 1} is {d:.0f} from the run-in or transit colour"

@@ -62,10 +62,16 @@ def _m(metres: float) -> str:
 def abort_criteria(plan: Plan) -> list[str]:
     """Plan-wide abort criteria in plain words."""
     w = plan.max_wind_mps
-    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "none within the map"
+    # an open-water map has no obstacle to measure against: "planned minimum none within the map"
+    # read as a missing figure on the card, so say what the chart shows instead
+    clear = (
+        f"planned minimum {plan.min_clearance_m:.0f} m"
+        if math.isfinite(plan.min_clearance_m)
+        else "the chart shows none near the track"
+    )
     return [
         f"true wind above {w * KN_PER_MPS:.0f} kn (Beaufort {beaufort(w)})",
-        f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m (planned minimum {clear})",
+        f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m ({clear})",
         "the ship leaves the corridor of the leg (cross-track limits below) or traffic comes within the sea room",
     ]
 
@@ -248,6 +254,13 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
             else "cut to the land-free water of the chart"
         ),
     ]
+
+
+# heading and speed in the steps table are the ship's at the step's start waypoint: unsaid, "steady
+# approach at 2.2 kn | 5.8 kn" and "turn on the spot | 5.8 kn" read as contradictions (a one-line
+# note, not longer column heads: a taller head row pushed the PDF's 44th row to the next page)
+STEPS_NOTE = "hdg and speed: the ship's at the step's start waypoint (WP)"
+STEPS_NOTE_PDF = "hdg, speed at start WP"  # in the PDF table's title, which is not wrapped
 
 
 # -- PDF pages --------------------------------------------------------------------------------
@@ -475,6 +488,7 @@ def card_html(
     )
     h.append(_img(map_png, "map of the planned track"))
     h.append("<h2>Steps in sailing order</h2>")
+    h.append(f"<p>{e(STEPS_NOTE)}.</p>")
     h.append(_html_table(TABLE_COLS, _table_rows(sheets), "steps"))
     h.append("<h2>Orders per step</h2>")
     h += [_html_step(s) for s in sheets]

@@ -108,12 +108,41 @@ def depth_layers(chart: Any) -> tuple[list[tuple[Any, np.ndarray]], np.ndarray, 
     return [(g, shades[depths.index(d)]) for g, d in chart.depth_areas], shades[0], depth_label(depths)
 
 
+# A manoeuvre's colour must not read as a run-in (dashed green), a transit (grey) or the chart
+# underneath: tab10's green (#2ca02c, 40 from RUN_IN_COLOUR) made the third manoeuvre of a plan
+# look like its own run-in on the card, and tab10's grey the eighth like a transit. Minimum
+# Euclidean distance in 8-bit RGB; 50 keeps tab10's brown (62 from the transit grey), but behind
+# every colour at least CLEAR_COLOUR_DISTANCE away: on the states page the steps are 12 %-alpha
+# bands, where brown's is CIELAB dE 2.6 from the transit's (the green one the rule removes: 3.2),
+# so the Quick start's fifth manoeuvre read as a transit. Only a plan of 8 manoeuvres gets brown.
+RESERVED_COLOURS = (RUN_IN_COLOUR, TRANSIT_COLOUR, SEA_ROOM_COLOUR, WATER_COLOUR, LAND_COLOUR)
+MIN_COLOUR_DISTANCE = 50.0
+CLEAR_COLOUR_DISTANCE = 65.0
+
+
+def manoeuvre_palette(name: str) -> list[tuple[float, float, float, float]]:
+    """The colours of matplotlib's qualitative map ``name`` (tab10, tab20) at least
+    MIN_COLOUR_DISTANCE from every RESERVED_COLOURS entry: first, in the map's order, those at
+    least CLEAR_COLOUR_DISTANCE away, then the others."""
+    cmap = matplotlib.colormaps[name]  # pyplot.get_cmap's, without pyplot
+    reserved = np.array([matplotlib.colors.to_rgb(c) for c in RESERVED_COLOURS]) * 255.0
+    kept = []
+    for i in range(cmap.N):
+        d = float(np.min(np.linalg.norm(reserved - np.array(cmap(i)[:3]) * 255.0, axis=1)))
+        if d >= MIN_COLOUR_DISTANCE:
+            kept.append((d < CLEAR_COLOUR_DISTANCE, cmap(i)))
+    return [c for _, c in sorted(kept, key=lambda k: k[0])]  # stable: the map's order within each group
+
+
 def primitive_colours(plan: Plan) -> dict[str, Any]:
     """A colour per step primitive: a distinct one per informative primitive (order of first
-    appearance), green for run-ins, grey for transit."""
+    appearance; none that reads as a run-in, a transit or the chart: manoeuvre_palette), green
+    for run-ins, grey for transit."""
     inf = list(dict.fromkeys(st.primitive for st in plan.steps if st.segment == "informative"))
-    cmap = matplotlib.colormaps["tab10" if len(inf) <= 10 else "tab20"]  # pyplot.get_cmap's, without pyplot
-    out: dict[str, Any] = {n: cmap(i % cmap.N) for i, n in enumerate(inf)}
+    palette = manoeuvre_palette("tab10")
+    if len(inf) > len(palette):
+        palette = manoeuvre_palette("tab20")
+    out: dict[str, Any] = {n: palette[i % len(palette)] for i, n in enumerate(inf)}
     for st in plan.steps:
         if st.primitive not in out:
             out[st.primitive] = RUN_IN_COLOUR if st.segment == "run-in" else TRANSIT_COLOUR
