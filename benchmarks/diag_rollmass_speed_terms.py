@@ -11,11 +11,15 @@ switch at a time (the truth is never changed):
 ``nosway``   no sway-velocity share ``(u/U - 1) (Y_v, K_v, n_v) v`` (``oe_fit.SWAY_TERM = False``);
 ``bias0``    the turn input's gyro bias taken as zero, the quiet truth's own (in place of the fit's estimate);
 ``nokappa``  the wall-sided heel gain held at the hull's (``output_error.FIT_KAPPA = False``);
+``align``    the followed speed delayed by the IMU channels' post-processing FIR (0.1 s, :data:`FIR_DELAY`);
 ``surge``    the speed followed from the surge equation (benchmarks/rollmass_surge_speed.py) in place of the low-pass.
 
 Switches combine with ``+`` (``lp0+bias0``: both).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_speed_terms.py --quiet --last 3 --switches main,lp0 --dump D
+
+``--twin``: the same ships at a constant speed (the truth's ``base`` drawn from the variant's seed: same draws, rudder,
+sea and noise, no surge state), the reference a speed loss is measured against.
 
 Each fit's row (the bench's ``--dump`` format, its family naming the switch) is appended to ``--dump`` as it ends,
 and a table of signed mass % / z mm per switch, run and case is printed at the end.
@@ -39,12 +43,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_rollmass_truth as bench  # noqa: E402
+import numpy as np  # noqa: E402
 import rollmass_surge_speed as surge  # noqa: E402
 
 from identify.rollmass import oe_fit, output_error, speed  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
-SWITCHES = ("main", "held", "lp0", "nosway", "bias0", "nokappa", "surge")
+SWITCHES = ("main", "held", "lp0", "nosway", "bias0", "nokappa", "surge", "align")
+# the group delay of the truth's order-20 FIR at 100 Hz (section 5's post-processing of the IMU channels and the
+# rudder, not of the positioning's speed), in samples of the 50 Hz recording
+FIR_DELAY = 5
 FAMILY_RUNS, FAMILY_SEED = 30, 2015
 
 
@@ -73,6 +81,15 @@ def switched(name: str) -> Iterator[None]:
 
         with mock.patch.object(oe_fit, "speed_terms", zero_bias):
             yield
+    elif name == "align":
+        held = speed.followed_speed
+
+        def delayed(rec):
+            s = held(rec)
+            return None if s is None else np.concatenate([np.full(FIR_DELAY, s[0]), s[:-FIR_DELAY]])
+
+        with mock.patch.object(speed, "followed_speed", delayed), mock.patch.object(output_error, "followed_speed", delayed):
+            yield
     elif name == "surge":
         # the value is read in output_error.model_inputs and speed.speed_inputs; every other caller asks only None or not
         with (
@@ -88,6 +105,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variant", default="speed_loss", choices=("speed_loss", "combined"))
     ap.add_argument("--quiet", action="store_true", help="no sea, no sensor noise")
+    ap.add_argument(
+        "--twin",
+        action="store_true",
+        help="the variant's ships, rudder, sea and noise without the speed loss (basin_truth's base drawn from the variant's seed)",
+    )
     ap.add_argument("--first", type=int, default=0, help="runs FIRST..LAST of the 30-run family")
     ap.add_argument("--last", type=int, default=3, help="runs FIRST..LAST of the 30-run family")
     ap.add_argument("--cases", default="case1,case2,case3")
@@ -98,11 +120,18 @@ def main() -> None:
     bad = [s for s in switches if any(p not in SWITCHES for p in s.split("+"))]
     if bad:
         ap.exit(2, f"{ap.prog}: error: --switches {a.switches}: unknown {', '.join(bad)}; fix: some of {', '.join(SWITCHES)}\n")
-    ship, data = bt.simulate_runs(a.variant, FAMILY_RUNS, bt.variant_seed(FAMILY_SEED, a.variant), quiet=a.quiet)
+    try:  # before the simulation: an unwritable dump must not cost the run
+        Path(a.dump).touch()
+    except OSError as e:
+        ap.exit(2, f"{ap.prog}: error: --dump {a.dump}: {e.strerror}; fix: give a writable file in an existing folder\n")
+    # every parameter is drawn from one stream in every variant, and the effects then switched on: base drawn from the
+    # variant's seed is the same ships with the same rudder, sea and noise, at a constant speed (Xdd = 0, no surge state)
+    truth = "base" if a.twin else a.variant
+    ship, data = bt.simulate_runs(truth, FAMILY_RUNS, bt.variant_seed(FAMILY_SEED, a.variant), quiet=a.quiet)
     heel = bench.rm_restoring.DEFAULT_HEEL_REFERENCE
     table = {}
     for sw in switches:
-        family = {"diag": "s62 speed terms", "switch": sw, "quiet": a.quiet}
+        family = {"diag": "s62 speed terms", "switch": sw, "quiet": a.quiet, "twin": a.twin}
         for run in range(a.first, a.last + 1):
             for case in a.cases.split(","):
                 recs = bt.case_recordings(ship, data, case, run)
