@@ -12,6 +12,7 @@ switch at a time (the truth is never changed):
 ``bias0``    the turn input's gyro bias taken as zero, the quiet truth's own (in place of the fit's estimate);
 ``nokappa``  the wall-sided heel gain held at the hull's (``output_error.FIT_KAPPA = False``);
 ``align``    the followed speed delayed by the IMU channels' post-processing FIR (0.1 s, :data:`FIR_DELAY`);
+``truev``   (quiet only) the sway term's velocity the truth's own (:func:`with_sway_velocity`), not the model's;
 ``surge``    the speed followed from the surge equation (benchmarks/rollmass_surge_speed.py) in place of the low-pass.
 
 Switches combine with ``+`` (``lp0+bias0``: both).
@@ -28,6 +29,7 @@ and a table of signed mass % / z mm per switch, run and case is printed at the e
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -49,7 +51,9 @@ import rollmass_surge_speed as surge  # noqa: E402
 from identify.rollmass import oe_fit, output_error, speed  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
-SWITCHES = ("main", "held", "lp0", "nosway", "bias0", "nokappa", "surge", "align")
+SWITCHES = ("main", "held", "lp0", "nosway", "bias0", "nokappa", "surge", "align", "truev")
+# the fit's datasets' true sway velocity (``truev``: set before each fit from the quiet truth's own measurement chain)
+TRUE_V: list[np.ndarray] = []
 # the group delay of the truth's order-20 FIR at 100 Hz (section 5's post-processing of the IMU channels and the
 # rudder, not of the positioning's speed), in samples of the 50 Hz recording
 FIR_DELAY = 5
@@ -71,6 +75,25 @@ def switched(name: str) -> Iterator[None]:
             yield
     elif name == "nokappa":
         with mock.patch.object(output_error, "FIT_KAPPA", False):
+            yield
+    elif name == "truev":
+        terms = oe_fit.speed_terms
+
+        def true_sway(*args, **kw):
+            r_bias, sway = terms(*args, **kw)
+            # how far the model's own sway velocity is from the truth's: corr and sd ratio, per dataset
+            print(
+                "  model v against true v: "
+                + ", ".join(
+                    f"corr {np.corrcoef(w, v)[0, 1]:.3f} sd {np.std(w) / np.std(v):.3f}"
+                    for w, v in zip(sway, TRUE_V)
+                    if w is not None
+                ),
+                flush=True,
+            )
+            return r_bias, [None if w is None else v for w, v in zip(sway, TRUE_V)]
+
+        with mock.patch.object(oe_fit, "speed_terms", true_sway):
             yield
     elif name == "bias0":
         terms = oe_fit.speed_terms
@@ -101,6 +124,23 @@ def switched(name: str) -> Iterator[None]:
         yield
 
 
+@contextmanager
+def with_sway_velocity() -> Iterator[None]:
+    """Every quiet dataset the truth simulates in the block also holds ``v``: the true sway velocity through the truth's
+    own roll-gyro chain (its ``_measure`` called again with ``v`` in the roll rate's place: with no noise and no
+    misalignment, the sensor's low-pass, the FIR and the decimation the IMU channels have, so it is the sway velocity
+    as the oe model's states see it)."""
+    measure = bt._measure
+
+    def both(ship, rng, delta, v, p, *rest, **kw):
+        out = measure(ship, rng, delta, v, p, *rest, **kw)
+        out["v"] = measure(ship, np.random.default_rng(0), delta, v, v, *rest, **kw)["p"]
+        return out
+
+    with mock.patch.object(bt, "_measure", both):
+        yield
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variant", default="speed_loss", choices=("speed_loss", "combined"))
@@ -118,6 +158,8 @@ def main() -> None:
     a = ap.parse_args()
     switches = a.switches.split(",")
     bad = [s for s in switches if any(p not in SWITCHES for p in s.split("+"))]
+    if not a.quiet and any("truev" in sw.split("+") for sw in switches):
+        ap.exit(2, f"{ap.prog}: error: --switches {a.switches}: truev needs --quiet; fix: add --quiet or drop truev\n")
     if bad:
         ap.exit(2, f"{ap.prog}: error: --switches {a.switches}: unknown {', '.join(bad)}; fix: some of {', '.join(SWITCHES)}\n")
     try:  # before the simulation: an unwritable dump must not cost the run
@@ -127,7 +169,8 @@ def main() -> None:
     # every parameter is drawn from one stream in every variant, and the effects then switched on: base drawn from the
     # variant's seed is the same ships with the same rudder, sea and noise, at a constant speed (Xdd = 0, no surge state)
     truth = "base" if a.twin else a.variant
-    ship, data = bt.simulate_runs(truth, FAMILY_RUNS, bt.variant_seed(FAMILY_SEED, a.variant), quiet=a.quiet)
+    with with_sway_velocity() if a.quiet else contextlib.nullcontext():
+        ship, data = bt.simulate_runs(truth, FAMILY_RUNS, bt.variant_seed(FAMILY_SEED, a.variant), quiet=a.quiet)
     heel = bench.rm_restoring.DEFAULT_HEEL_REFERENCE
     table = {}
     for sw in switches:
@@ -135,6 +178,7 @@ def main() -> None:
         for run in range(a.first, a.last + 1):
             for case in a.cases.split(","):
                 recs = bt.case_recordings(ship, data, case, run)
+                TRUE_V[:] = [data[name]["v"][run] for name in bt.CASES[case]] if a.quiet else []
                 with switched(sw):
                     rows = bench._one((a.variant, run, case, recs, ["oe"], "held" not in sw.split("+"), heel, family))
                 for r in rows:
