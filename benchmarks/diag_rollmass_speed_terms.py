@@ -58,6 +58,12 @@ TRUE_V: list[np.ndarray] = []
 # rudder, not of the positioning's speed), in samples of the 50 Hz recording
 FIR_DELAY = 5
 FAMILY_RUNS, FAMILY_SEED = 30, 2015
+# the switches that are one module setting: (module, name, value)
+SETTINGS = {
+    "lp0": (speed, "SPEED_LP_HZ", 0.0),
+    "nosway": (oe_fit, "SWAY_TERM", False),
+    "nokappa": (output_error, "FIT_KAPPA", False),
+}
 
 
 @contextmanager
@@ -67,14 +73,8 @@ def switched(name: str) -> Iterator[None]:
         first, rest = name.split("+", 1)
         with switched(first), switched(rest):
             yield
-    elif name == "lp0":
-        with mock.patch.object(speed, "SPEED_LP_HZ", 0.0):
-            yield
-    elif name == "nosway":
-        with mock.patch.object(oe_fit, "SWAY_TERM", False):
-            yield
-    elif name == "nokappa":
-        with mock.patch.object(output_error, "FIT_KAPPA", False):
+    elif name in SETTINGS:
+        with mock.patch.object(*SETTINGS[name]):
             yield
     elif name == "truev":
         terms = oe_fit.speed_terms
