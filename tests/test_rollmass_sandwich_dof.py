@@ -93,3 +93,20 @@ def test_the_mass_path_does_not_import_scipy_stats():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_andrews_window_of_ar1_load_scores_is_the_plug_in_formula():
+    # stop 62: the load's two scores are the residual's channels p and a_s themselves (J's two columns pick them,
+    # A = n I), each an AR(1) of pole 0.9: alpha(1) = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2) (Andrews 1991, eq. 6.4) and
+    # S_T = 1.1447 (alpha n)^(1/3) = 175.0 samples (eq. 6.2), a window of 174 lags (a white score would get 1)
+    from scipy.signal import lfilter
+
+    n, rho = 40000, 0.9
+    J = np.zeros((3 * n, 2))
+    J[0::3, 0], J[1::3, 1] = 1.0, 1.0
+    f = np.zeros(3 * n)
+    drive = np.random.default_rng(3).standard_normal((n, 3))
+    f[0::3], f[1::3], f[2::3] = (lfilter([1.0], [1.0, -rho], drive[:, c]) for c in range(3))
+    expected = 1.1447 * (4 * rho**2 / ((1 - rho) ** 2 * (1 + rho) ** 2) * n) ** (1 / 3) - 1
+    assert abs(sw.andrews_lags(sw.load_basis(J), f, [n]) - expected) <= 0.05 * expected
+    assert sw.andrews_lags(sw.load_basis(J), drive.ravel(), [n]) <= 3
