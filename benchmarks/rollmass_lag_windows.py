@@ -48,11 +48,14 @@ def _line(label: str, rows: list[list], key: str) -> str:
     if not len(good):
         return f"{label:22} {key:>6} {n:4d}  all failed"
     hm, hz = np.abs(good[:, 0]) <= good[:, 2], np.abs(good[:, 1]) <= good[:, 3]
+    ref = np.array([f["5"] for f in fits if f is not None])  # paired with main's window, fit by fit
+    both5 = (np.abs(ref[:, 0]) <= ref[:, 2]) & (np.abs(ref[:, 1]) <= ref[:, 3])
     return (
         f"{label:22} {key:>6} {n:4d} {n - len(good):3d} | {100 * hm.sum() / n:5.0f} {100 * hz.sum() / n:5.0f} "
         f"{100 * (hm & hz).sum() / n:5.0f} | {good[:, 0].std():5.2f} {good[:, 1].std():5.2f} | "
         f"{np.median(good[:, 2]):5.2f} {np.median(good[:, 3]):5.2f} | {np.median(good[:, 4]):6.2f} "
-        f"{np.median(good[:, 5]):6.1f} | {np.median(good[:, 6]):5.1f}"
+        f"{np.median(good[:, 5]):6.1f} | {np.median(good[:, 6]):5.2f} | {int((hm & hz & ~both5).sum()):2d} "
+        f"{int((~(hm & hz) & both5).sum()):2d}"
     )
 
 
@@ -85,7 +88,7 @@ def main() -> None:
     keys.remove("own")
     print(
         f"{'group':22} {'window':>6} {'n':>4} {'nf':>3} | {'cov m':>5} {'cov z':>5} {'both':>5} | {'sd sm':>5} {'sd sz':>5} | "
-        f"{'t m':>5} {'t z':>5} | {'w m %':>6} {'w z mm':>6} | {'lag s':>5}"
+        f"{'t m':>5} {'t z':>5} | {'w m %':>6} {'w z mm':>6} | {'lag s':>5} | {'+':>2} {'-':>2}"
     )
     groups = [(v, [r for r in rows if r[0] == v]) for v in dict.fromkeys(r[0] for r in rows)]
     if a.by_case:
@@ -99,7 +102,8 @@ def main() -> None:
     print(
         "cov: % of all fits (a failure a miss) whose interval estimate +- t sd holds the truth (basin_truth); sd sm/sz: "
         "sd of the z-scores error/sd; t: median critical value; w: median full width (mass % of the true load, height "
-        "mm); lag s: median window in s"
+        "mm); lag s: median window in s; +/-: fits whose two intervals hold the truth at this window and not at 5 s / at "
+        "5 s and not at this one"
     )
     if a.same_as:
         print("\nestimates against " + " ".join(a.same_as) + ": " + _same_as(rows, load_dumps(a.same_as)))
