@@ -16,6 +16,7 @@ from identify.rollmass.geodesic import geodesic_lm
 from identify.rollmass.gyro_bias import speed_terms
 from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
+    INTERVAL_LAG_S,
     NOISE_AR,
     SANDWICH_LAG_S,
     SWAY_MASS_PRIOR_SD,
@@ -190,7 +191,8 @@ def _finish(prob: _Problem, x: np.ndarray, fin: _Finish) -> tuple[np.ndarray, _F
     try:
         # f: the residual at x; the leverage-corrected covariance and the interval's t_{0.975, nu} (Bell &
         # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
-        interval = load_interval(basis, f, [d.n for d in datasets], lags)
+        # over INTERVAL_LAG_S, not the stationarity check's window (stop 62)
+        interval = load_interval(basis, f, [d.n for d in datasets], max(1, round(INTERVAL_LAG_S / datasets[0].T)))
         fin.cov_load, fin.dof = interval.cov, interval.dof
     except UnresolvedLoad as err:  # an interval rounding would decide: none, and the estimate says why; the
         fin.no_interval = str(err)  # point stays this fit's (converged is stationarity's alone: no redo)
