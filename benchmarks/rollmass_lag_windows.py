@@ -81,9 +81,12 @@ def main() -> None:
     ap.add_argument("--same-as", nargs="+", help="dumps of the same fits whose estimates these must equal")
     a = ap.parse_args()
     rows = [r for r in load_dumps(a.dump) if r[2] == "oe"]
-    for r in rows:
-        if r[4] is not None and not (isinstance(r[7], dict) and "lag_windows" in r[7] and r[7]["lag_windows"]):
-            sys.exit(f"{'/'.join(map(str, r[:4]))}: no lag_windows recorded; fix: give a dump of stop 62's bench or later")
+    for p in a.dump:  # file by file, so that the refusal names the file
+        for r in load_dumps([p]):
+            if r[2] == "oe" and r[4] is not None and not (isinstance(r[7], dict) and r[7].get("lag_windows")):
+                sys.exit(f"{p}: fit {'/'.join(map(str, r[:4]))} has no lag_windows; fix: give a dump of stop 62's bench or later")
+    if not any(r[4] is not None for r in rows):
+        sys.exit(f"{a.dump[0]}: no converged oe fit; fix: give a dump of stop 62's bench with oe fits")
     keys = list(next(r[7]["lag_windows"] for r in rows if r[4] is not None))
     keys.remove("own")
     print(
