@@ -16,7 +16,9 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
 
 Each dumped row's last element also holds the fit's path (``path``: exact, geodesic, continued or forward-difference redo, why, each
-LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
+LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks;
+an oe row also the same fit's interval at other sandwich windows (``lag_windows``, stop 62: :func:`_windowed`;
+tabled by benchmarks/rollmass_lag_windows.py).
 """
 
 from __future__ import annotations
