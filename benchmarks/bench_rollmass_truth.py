@@ -14,10 +14,11 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 4 --no-u                       # logs without the speed u(t)
     python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
-    python benchmarks/bench_rollmass_truth.py --runs 30 --innovation-sd fixed        # oe_fit.INNOVATION_SD "fixed" (stop 61)
 
 Each dumped row's last element also holds the fit's path (``path``: exact, geodesic, continued or forward-difference redo, why, each
-LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
+LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks;
+an oe row also the same fit's interval at other sandwich windows (``lag_windows``, stop 62: :func:`_windowed`;
+tabled by benchmarks/rollmass_lag_windows.py).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass import restoring as rm_restoring  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.estimate import METHODS  # noqa: E402
+from identify.rollmass.sandwich import andrews_lags  # noqa: E402
 from primitives.errors import UserError  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
@@ -55,15 +57,49 @@ from tests.physics import basin_truth as bt  # noqa: E402
 PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)}
 
 
+# the sandwich's Bartlett windows (s) each oe fit's interval is also given at, from the same converged fit (stop 62):
+# the window enters only the meat, so no refit; "auto" is Andrews' (1991) AR(1) plug-in on the load's scores
+# (sandwich.andrews_lags), "auto1s" the same on their 1 s sums
+LAG_WINDOWS_S = (5.0, 10.0, 20.0, 40.0)
+_LOAD_INTERVAL = oe_fit.load_interval
+
+
+def _windowed(T: float, seen: list[dict]):
+    """``oe_fit.load_interval`` that also records, per call, the load's sds and Satterthwaite dofs at every window of
+    :data:`LAG_WINDOWS_S` and at Andrews' automatic ones (samples, 1 s sums), from the same basis and residual: ``{window: [m_sd, z_sd,
+    m_dof, z_dof, lags]}`` (``"auto"`` too), the first entry the call's own window (to find the reported call)."""
+
+    def wrapped(basis, f, lengths, lags):
+        out = _LOAD_INTERVAL(basis, f, lengths, lags)
+        rec = {"own": [*np.sqrt(np.diag(out.cov)), *out.dof, lags]}
+        auto = [("auto", andrews_lags(basis, f, lengths)), ("auto1s", andrews_lags(basis, f, lengths, max(1, round(1.0 / T))))]
+        for key, L in [(f"{w:g}", max(1, round(w / T))) for w in LAG_WINDOWS_S] + auto:
+            iv = _LOAD_INTERVAL(basis, f, lengths, L)
+            rec[key] = [*np.sqrt(np.diag(iv.cov)), *iv.dof, L]
+        seen.append({k: [float(v) for v in r] for k, r in rec.items()})
+        return out
+
+    return wrapped
+
+
+def _reported_windows(seen: list[dict], m_sd: float, z_sd: float) -> dict | None:
+    """The record of :func:`_windowed` whose own window gave the reported sds (the fit's last finish may not be its
+    last call: a redo is judged against the exact path's end); None when none did (no interval)."""
+    hits = [r for r in seen if np.allclose(r["own"][:2], [m_sd, z_sd], rtol=1e-12, atol=0.0)]
+    return hits[-1] if hits else None
+
+
 def _one(job: tuple) -> list[tuple]:
     variant, run, case, recs, methods, with_u, heel_ref, family = job
-    oe_fit.INNOVATION_SD = family.get("innovation_sd", "legacy")  # in the worker itself: a spawned one would not inherit it
+    seen: list[dict] = []
+    oe_fit.load_interval = _windowed(recs[0].T, seen)  # in the worker itself: a spawned one would not inherit it
     m_true, z_true = bt.truth_load(case)
     out = []
     with tempfile.TemporaryDirectory() as d:
         paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", with_u) for r in recs]
         for method in methods:
             c0, fitted = time.process_time(), {}
+            seen.clear()
             try:
                 e = estimate_from_files(*paths, method=method, heel_reference=heel_ref)
                 (mlo, mhi), (zlo, zhi) = e.ci()
@@ -90,6 +126,9 @@ def _one(job: tuple) -> list[tuple]:
                 # the intervals' Satterthwaite degrees of freedom (MassEstimate.critical's t): a miss's z-score is read
                 # against its own critical value (stop 60), which the sd alone does not give
                 fitted["m_dof"], fitted["z_dof"] = e.m_dof, e.zbar_m_dof
+                # stop 62: the same fit's interval at other sandwich windows ([m_sd, z_sd, m_dof, z_dof, lags] each)
+                if method == "oe":
+                    fitted["lag_windows"] = _reported_windows(seen, e.m_sd, e.zbar_m_sd)
             except UserError as exc:
                 row, why = None, str(exc)[:80]
             out.append((variant, case, method, run, row, why, time.process_time() - c0, {**fitted, "family": family}))
@@ -164,8 +203,10 @@ def _family(a: argparse.Namespace) -> dict[str, object]:
     """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``), and the
     code that fitted them (:func:`_code_hash`)."""
     out = {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
-    if a.innovation_sd != "legacy":  # recorded only off the default, so a legacy dump of before stop 61 still resumes
-        out["innovation_sd"] = a.innovation_sd
+    # the oe weights' innovation sd, the only one since stop 62 (oe_fit._reweighted): recorded so that these rows pool
+    # with stop 61's "fixed" dumps, and rows of a dump without the field (main's "legacy" sd, stop 60 and before) or
+    # with "legacy" do not (rollmass_family_table.load refuses two family settings)
+    out["innovation_sd"] = "fixed"
     return out
 
 
@@ -339,12 +380,6 @@ def main() -> None:
         choices=rm_restoring.HEEL_REFERENCES,
         default=rm_restoring.DEFAULT_HEEL_REFERENCE,
         help="how oe references the AHRS roll angle (identify.rollmass.restoring.referenced_heel); for comparisons",
-    )
-    ap.add_argument(
-        "--innovation-sd",
-        choices=("legacy", "fixed"),
-        default="legacy",
-        help="the oe weights' innovation sd (identify.rollmass.oe_fit.INNOVATION_SD, stop 61); recorded in the dump's family",
     )
     ap.add_argument(
         "--dump",

@@ -1,10 +1,11 @@
-"""The oe fit's per-stage innovation sds, legacy and fixed (stop 61, ``oe_fit.INNOVATION_SD``), on one truth-bench fit.
+"""The oe fit's per-stage innovation sds, legacy and fixed (stop 61; "fixed" the only fit since stop 62), on one truth-bench fit.
 
 ``oe_fit._reweighted`` gets each stage's output errors already whitened by that stage's whiteners; it fits a new
 factor to them and convolves it with the old one (the next stage's composite whitener, right for the raw error). The
 legacy sd applies that composite to the whitened errors (the old whitener twice); the fixed sd applies the new factor
 alone (= the composite on the raw error, up to the nuisance projection). Per ``_reweighted`` call it prints both, per
-dataset and channel (p, a_s, r), and their ratio; the fit itself runs with ``--innovation-sd``'s setting.
+dataset and channel (p, a_s, r), and their ratio; the fit itself runs with the fixed sd (the legacy one is computed
+here beside it: the composite whitener ``_reweighted`` returns, applied to the errors it got).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_innovation_sd.py --runs 30 --fit waves/0/case1
 """
@@ -26,22 +27,21 @@ import numpy as np  # noqa: E402
 
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
+from identify.rollmass.sensitivity import fir  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 CHANNELS = ("p", "a_s", "r")
 
 
-def _both(original, setting: str, calls: list):
-    """``_reweighted`` that records the legacy and the fixed sds of each call, and returns ``setting``'s result."""
+def _both(original, calls: list):
+    """``_reweighted`` that also records each call's legacy sd (the returned composite applied to the already whitened
+    errors) beside the fixed one it returns."""
 
     def wrapped(errs, ar, ar_order):
-        out = {}
-        for s in ("legacy", "fixed"):
-            oe_fit.INNOVATION_SD = s
-            out[s] = original(errs, ar, ar_order)
-        oe_fit.INNOVATION_SD = setting
-        calls.append((ar is None, out["legacy"][1], out["fixed"][1]))
-        return out[setting]
+        comp, sd, w = original(errs, ar, ar_order)
+        legacy = np.array([[fir(comp[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
+        calls.append((ar is None, legacy, sd))
+        return comp, sd, w
 
     return wrapped
 
@@ -51,20 +51,18 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=30, help="the family's --runs (run k's ship depends on it)")
     ap.add_argument("--seed", type=int, default=2015)
     ap.add_argument("--fit", default="waves/0/case1", help="variant/run/case")
-    ap.add_argument("--innovation-sd", choices=("legacy", "fixed"), default="legacy")
     a = ap.parse_args()
     variant, run, case = a.fit.split("/")
     ship, data = bt.simulate_runs(variant, a.runs, bt.variant_seed(a.seed, variant))
     recs = bt.case_recordings(ship, data, case, int(run))
     calls: list = []
-    oe_fit.INNOVATION_SD = a.innovation_sd
-    oe_fit._reweighted = _both(oe_fit._reweighted, a.innovation_sd, calls)
+    oe_fit._reweighted = _both(oe_fit._reweighted, calls)
     with tempfile.TemporaryDirectory() as d:
         paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
         e = estimate_from_files(*paths, method="oe")
     m_true, z_true = bt.truth_load(case)
     print(
-        f"{a.fit} fitted with INNOVATION_SD {a.innovation_sd}: mass {100 * (e.m / m_true - 1):+.3f} %, "
+        f"{a.fit} fitted with the fixed innovation sd: mass {100 * (e.m / m_true - 1):+.3f} %, "
         f"height {1000 * (e.zbar_m - z_true):+.2f} mm, path {e.fit_path.path if e.fit_path else '-'}"
     )
     for k, (first, leg, fix) in enumerate(calls):

@@ -38,7 +38,8 @@ def _cov(z: dict, lags: list[int] | int) -> np.ndarray:
 
 
 def _reported(z: dict) -> np.ndarray:
-    """The covariance the fit reported: the plain 5 s sandwich, leverage-corrected where the fit stored ``rho``."""
+    """The covariance the fit reported: the plain sandwich at its window (``lags``: 5 s before stop 62, 20 s since),
+    leverage-corrected where the fit stored ``rho``."""
     C = _cov(z, int(z["lags"]))
     return leveraged(z, C) if "rho" in z else C
 
@@ -104,8 +105,12 @@ def _table(rows: list[tuple], by_case: bool) -> None:
 
 def analyse(a: argparse.Namespace) -> None:
     fits = _load(Path(a.dir))
-    T = 5.0 / float(fits[0][3]["lags"])  # the fits' window is SANDWICH_LAG_S = 5 s
-    print(f"{len(fits)} stored fits; sample time {T:g} s\n")
+    z0 = fits[0][3]
+    # the sample time: stored since stop 62 (the captured window became the interval's 20 s); before, the window
+    # was SANDWICH_LAG_S = 5 s
+    T = float(z0["T"]) if "T" in z0 else 5.0 / float(z0["lags"])
+    own = f"NW {float(z0['lags']) * T:g} s"  # the fits' own window, as they reported it
+    print(f"{len(fits)} stored fits; sample time {T:g} s, the fits' window {own[3:]}\n")
     print(
         "reported sd reproduced from the stored scores (max relative difference): "
         + f"{max(abs(np.sqrt(_reported(z)[0, 0]) / z['m_sd'] - 1) for *_, z in fits):.1e}\n"
@@ -119,15 +124,17 @@ def analyse(a: argparse.Namespace) -> None:
         rows += _rows(fits, f"NW {L_s:g} s", lambda z, L=round(L_s / T): _cov(z, L))
     rows += _rows(fits, "NW auto (A91)", lambda z: _cov(z, [andrews_lags(g) for g in _influence(z)]))
     if all("rho" in z for *_, z in fits):
-        rows += _rows(fits, "NW 5 s leverage", lambda z: leveraged(z, _cov(z, int(z["lags"]))))
+        rows += _rows(fits, f"{own} leverage", lambda z: leveraged(z, _cov(z, int(z["lags"]))))
     if all("nu" in z for *_, z in fits):  # Bell & McCaffrey's t_{0.975, nu} for 1.96 (sandwich.load_dof)
-        rows += _rows(fits, "NW 5 s lev t_nu", lambda z: leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975))
+        rows += _rows(
+            fits, f"{own} lev t_nu", lambda z: leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975)
+        )
     print()
     _table(rows, by_case=False)
     if all("nu" in z for *_, z in fits):
         _dof_table(fits)
     print()
-    _table([r for r in rows if r[0] in ("NW 5 s", "NW 5 s leverage", "NW 5 s lev t_nu")], by_case=True)
+    _table([r for r in rows if r[0] in (own, f"{own} leverage", f"{own} lev t_nu")], by_case=True)
     if a.quiet_dir:
         quiet = {(v, c, r): z for v, c, r, z in _load(Path(a.quiet_dir))}
         _split(fits, quiet)

@@ -30,7 +30,9 @@ def capture() -> dict:
 
     def finished(prob, x, steps, lags):
         out = finish(prob, x, steps, lags)
-        seen.update(x=out[0], free=prob.free, prob=prob)  # the final point (the last _fit's, as the covariance's)
+        # the final point (the last _fit's, as the covariance's); the sample time, since the captured window is the
+        # interval's (output_error.INTERVAL_LAG_S, 20 s since stop 62), not the stationarity check's 5 s
+        seen.update(x=out[0], free=prob.free, prob=prob, T=prob.datasets[0].T)
         return out
 
     oe_fit._gauss_newton = finished
@@ -46,7 +48,7 @@ def store(seen: dict, path: Path, **extra) -> None:
         out[f"h{k}"] = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
         out[f"f{k}"] = f[rows].reshape(n, 3)
         i += 3 * n
-    out.update(A=J.T @ J, Jp=J[i:], fp=f[i:], lengths=np.array(lengths), lags=seen["lags"])
+    out.update(A=J.T @ J, Jp=J[i:], fp=f[i:], lengths=np.array(lengths), lags=seen["lags"], T=seen["T"])
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, **out, **{k: np.asarray(v) for k, v in extra.items()})
     tmp.replace(path)

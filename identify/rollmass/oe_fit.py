@@ -16,6 +16,7 @@ from identify.rollmass.geodesic import geodesic_lm
 from identify.rollmass.gyro_bias import speed_terms
 from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
+    INTERVAL_LAG_S,
     NOISE_AR,
     SANDWICH_LAG_S,
     SWAY_MASS_PRIOR_SD,
@@ -60,11 +61,6 @@ GYRO_BIAS = True
 # follow the speed's variation in the sway velocity's terms too, (u/U - 1)(Y_v, K_v, n_v) v with v the model's own
 # sway velocity at the last stage's parameters (identify.rollmass.gyro_bias.sway_velocity); needs GYRO_BIAS
 SWAY_TERM = True
-# each channel's innovation sd, the weight's 1/sd (:func:`_reweighted`, stop 61): "fixed", the new whitener factor
-# applied to the stage's errors (already whitened by the last stage's whiteners, so this is the composite whitener on
-# the raw error), or "legacy", the composite applied to those whitened errors (the last stage's whitener twice; main's
-# bits up to stop 60). Stage 1 (no whitener yet) is the same either way; the sandwich uses the weights actually applied
-INNOVATION_SD = "legacy"
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
@@ -195,7 +191,8 @@ def _finish(prob: _Problem, x: np.ndarray, fin: _Finish) -> tuple[np.ndarray, _F
     try:
         # f: the residual at x; the leverage-corrected covariance and the interval's t_{0.975, nu} (Bell &
         # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
-        interval = load_interval(basis, f, [d.n for d in datasets], lags)
+        # over INTERVAL_LAG_S, not the stationarity check's window (stop 62)
+        interval = load_interval(basis, f, [d.n for d in datasets], max(1, round(INTERVAL_LAG_S / datasets[0].T)))
         fin.cov_load, fin.dof = interval.cov, interval.dof
     except UnresolvedLoad as err:  # an interval rounding would decide: none, and the estimate says why; the
         fin.no_interval = str(err)  # point stays this fit's (converged is stationarity's alone: no redo)
@@ -358,16 +355,15 @@ def _reweighted(
 ) -> tuple[list[list[np.ndarray]], np.ndarray, np.ndarray]:
     """Iterated ML's next weights: each channel's output error whitened (waves are narrow-band process noise that
     reaches the outputs coloured; the new whitener is convolved with the last stage's ``ar``), then weighted by its
-    innovation sd. ``errs`` are :meth:`output_error._Problem.errors`, already whitened by ``ar``: the sd is the new
-    factor's output on them (:data:`INNOVATION_SD` "fixed"), the composite's on the raw error; "legacy" applies the
-    composite to them, ``ar`` twice. Returns the whiteners, the innovation sds and the weights."""
-    if INNOVATION_SD not in ("fixed", "legacy"):
-        raise ValueError(f"INNOVATION_SD is {INNOVATION_SD!r}; fix: set it to 'fixed' or 'legacy'")
+    innovation sd. ``errs`` are :meth:`output_error._Problem.errors`, already whitened by ``ar``: the innovation sd is
+    the new factor's output on them, i.e. the composite whitener's on the raw error (stop 61; main's bits up to stop 61
+    applied the composite to the whitened errors, ``ar`` twice, an sd sqrt(1 + a^2) too large on an AR(1) channel of
+    pole a). Stage 1 (``ar`` None) is the same either way; the sandwich uses the weights actually applied. Returns the
+    whiteners, the innovation sds and the weights."""
     new = [[_whitener(e[:, j], ar_order) for j in range(3)] for e in errs]
-    ar = [[new[i][j] if ar is None else np.convolve(new[i][j], ar[i][j]) for j in range(3)] for i in range(len(errs))]
-    applied = new if INNOVATION_SD == "fixed" else ar
-    sd = np.array([[fir(applied[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
-    return ar, sd, 1.0 / np.maximum(sd, 1e-12)
+    composite = [[new[i][j] if ar is None else np.convolve(new[i][j], ar[i][j]) for j in range(3)] for i in range(len(errs))]
+    sd = np.array([[fir(new[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
+    return composite, sd, 1.0 / np.maximum(sd, 1e-12)
 
 
 def _fit(

@@ -274,3 +274,38 @@ def leverage_scale(rho: np.ndarray) -> np.ndarray:
     """The factor on each load sd, ``1 / sqrt(rho)`` with ``rho`` (:attr:`LoadMoments.rho`) clipped to
     [:data:`LEVERAGE_MIN`, 1] (``rho`` <= 1 for a PSD meat; the upper clip guards rounding)."""
     return 1.0 / np.sqrt(np.clip(rho, LEVERAGE_MIN, 1.0))
+
+
+# the largest AR(1) coefficient :func:`andrews_lags` plugs in: at 1 its formula's bandwidth is infinite (a unit root
+# in a score, not a long-run variance); 0.99 bounds the window at about 1.1447 (4 * 0.99^2 / 0.01^2 / 1.99^2 n)^(1/3)
+ANDREWS_RHO_MAX = 0.99
+
+
+def andrews_lags(basis: LoadBasis, f: np.ndarray, lengths: list[int], block: int = 1) -> int:
+    """The Bartlett window's lags (samples) by Andrews' (1991) AR(1) plug-in, on the load's score series: for each
+    dataset and load parameter ``j`` the per-sample score ``h_t = sum_channels u_tc f_tc`` (``u = J a_j``,
+    :attr:`LoadBasis.u`; the series :func:`_meat` of ``u`` sums), its least-squares AR(1) ``rho_a`` and innovation
+    variance ``s_a^2``; ``alpha(1) = sum_a 4 rho_a^2 s_a^4 / ((1 - rho_a)^6 (1 + rho_a)^2) / sum_a s_a^4 / (1 -
+    rho_a)^4`` (Andrews 1991, eq. 6.4, unit weights) and the bandwidth ``S_T = 1.1447 (alpha(1) T)^(1/3)`` (eq. 6.2,
+    Bartlett kernel, ``T`` the mean dataset length), whose weights ``1 - k / S_T`` are :func:`bartlett_meat`'s ``1 - k
+    / (lags + 1)``: ``lags = round(S_T) - 1``, at least 1 and below the shortest dataset.
+
+    ``block`` > 1 applies the rule to the scores summed over blocks of that many samples (their long-run variance is
+    the samples', ``block`` times): an AR(1) of the samples sees only the lag-1 correlation, which a whitened residual
+    leaves near 0 at 50 Hz however slow the errors that remain (stop 62); ``S_T`` is then in blocks, ``block`` times
+    as many samples."""
+    u = basis.u
+    num = den = 0.0
+    i = 0
+    for n in lengths:
+        h = (u[i : i + 3 * n] * f[i : i + 3 * n, None]).reshape(n, 3, 2).sum(axis=1)
+        h = h[: n - n % block].reshape(-1, block, 2).sum(axis=1)
+        for a in h.T:
+            x, y = a[:-1], a[1:]
+            rho = float(np.clip(x @ y / max(x @ x, 1e-300), -ANDREWS_RHO_MAX, ANDREWS_RHO_MAX))
+            s4 = float(np.mean((y - rho * x) ** 2)) ** 2
+            num += 4 * rho * rho * s4 / ((1 - rho) ** 6 * (1 + rho) ** 2)
+            den += s4 / (1 - rho) ** 4
+        i += 3 * n
+    s_t = block * 1.1447 * (num / max(den, 1e-300) * float(np.mean(lengths)) / block) ** (1 / 3)
+    return int(min(max(round(s_t) - 1, 1), min(lengths) - 1))
