@@ -42,6 +42,18 @@ def test_zero_delay_is_no_delay_found_not_an_implausible_one(ship):
     assert not ok and "at most" in why  # the upper bound, when that is the one violated
 
 
+@pytest.mark.parametrize("name, says", [("model-ship", "1 m model ship"), ("kvlcc2", "KVLCC2 tanker")])
+def test_rejected_wind_says_what_the_ship_is_from_its_profile(name, says):
+    """A rejected steady wind names the ship as its profile does (its name, what its description says it is, its
+    L, B, T): it read "as a loaded tanker of these main particulars would feel it" for the 1 m model ship too."""
+    prof = load_profile(name)
+    lim = plausible.MAX_WIND_REF_MPS * plausible.froude(prof)
+    ok, why = plausible.check("wind", {"speed_mps": 2 * lim}, prof)
+    assert not ok and "at most" in why
+    assert f"'{name}'" in why and says in why and f"L {prof.length_m:g} m" in why, why
+    assert ("tanker" in why) == ("tanker" in prof.description), why
+
+
 def _verdict(rss0, rss1, den=1e6, rows=1000, q=1):
     rss0, rss1 = np.array(rss0, float), np.array(rss1, float)
     return verdict(rss0, rss1, np.full_like(rss0, den), np.full(len(rss0), rows), q, 1.0)
