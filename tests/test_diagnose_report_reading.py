@@ -51,7 +51,16 @@ def test_rejected_wind_says_what_the_ship_is_from_its_profile(name, says):
     ok, why = plausible.check("wind", {"speed_mps": 2 * lim}, prof)
     assert not ok and "at most" in why
     assert f"'{name}'" in why and says in why and f"L {prof.length_m:g} m" in why, why
-    assert ("tanker" in why) == ("tanker" in prof.description), why
+    # the ship is not called a tanker; the wind model's tanker coefficients are named as the model's
+    assert "as a loaded tanker" not in why and "loaded tanker's wind coefficients" in why, why
+
+
+def test_ship_words_of_a_made_profile_say_its_name_once():
+    """`profile new` writes "coaster: 3-DOF model made from ..." as the description: the name is not said twice."""
+    from dataclasses import replace
+
+    prof = replace(load_profile("kvlcc2"), name="coaster", description="coaster: 3-DOF model made from main particulars (x)")
+    assert plausible.ship_words(prof) == "'coaster', 3-DOF model made from main particulars,"
 
 
 def _verdict(rss0, rss1, den=1e6, rows=1000, q=1):
