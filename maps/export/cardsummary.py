@@ -35,12 +35,9 @@ def design_name(plan: Plan, code: str) -> str:
     return f"{name} [{code}]" if name and name != code else code
 
 
-def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
-    """The experiment design behind the counts (``plan.design``): summary lines and one row
-    per primitive (its name with the code, weight, rounded count, planned count). Empty without a design."""
-    d = getattr(plan, "design", None) or {}
-    if not d:
-        return [], []
+def _design_head(d: dict) -> list[str]:
+    """The design's summary lines: criterion and mean subtraction, D-efficiency, what was dropped and why,
+    the parameters held at the profile's values."""
     head = []
     crit = d.get("criterion")
     if crit:
@@ -82,6 +79,16 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
         from maps.searoom import held_text
 
         head.append(f"Held at the profile's values (the manoeuvres that fit cannot identify them): {held_text(held)}")
+    return head
+
+
+def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
+    """The experiment design behind the counts (``plan.design``): summary lines and one row
+    per primitive (its name with the code, weight, rounded count, planned count). Empty without a design."""
+    d = getattr(plan, "design", None) or {}
+    if not d:
+        return [], []
+    head = _design_head(d)
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
     # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named
