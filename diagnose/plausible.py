@@ -38,6 +38,14 @@ def max_delay_s(profile: ShipProfile) -> tuple[float, str]:
     return lim, f"{MAX_DELAY_REF_S:g} s Froude-scaled to {profile.length_m:g} m, at least {MIN_DELAY_SAMPLES} samples"
 
 
+def ship_words(profile: ShipProfile) -> str:
+    """What the ship is, in its profile's own words: its name and the first clause of its description
+    ("'model-ship', 1 m model ship of the thesis's simulation study"), never a kind the profile does not declare."""
+    what = profile.description.split(",")[0].split(" (")[0].strip()
+    what = what.removeprefix(f"{profile.name}:").strip()  # `profile new` writes "coaster: 3-DOF model made from ..."
+    return f"{profile.name!r}, {what}," if what else repr(profile.name)
+
+
 def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | None = None) -> tuple[bool, str]:
     """(plausible?, the limit it was compared with, in words)."""
     if effect == "current":
@@ -51,7 +59,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
         lim = MAX_WIND_REF_MPS * froude(profile)
         ok = params["speed_mps"] <= lim
         return ok, (
-            f"wind {params['speed_mps']:.1f} m/s (as a loaded tanker of these main particulars would feel it) vs at most "
+            # the estimate rests on windload's loaded-tanker coefficients for every ship: say so, beside what the ship is
+            f"wind {params['speed_mps']:.1f} m/s (what {ship_words(profile)} would feel with a loaded tanker's wind "
+            f"coefficients, Blendermann 1994, on areas from L {profile.length_m:g} m, B {profile.beam_m:g} m, "
+            f"T {profile.draught_m:g} m) vs at most "
             f"{lim:.1f} m/s ({MAX_WIND_REF_MPS:g} m/s Froude-scaled)"
         )
     if effect == "actuator_delay":

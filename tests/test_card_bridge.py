@@ -273,10 +273,43 @@ def test_labels_keep_off_the_north_arrow_and_the_end_marker():
     assert all(lab.moved for lab in labels)
 
 
-def _check_marks(centres: np.ndarray, radii: np.ndarray, frame: tuple[float, float, float, float], end: np.ndarray) -> None:
-    from maps.export.labels import map_marks, mark_room
+def test_north_arrow_goes_to_a_corner_the_track_keeps_clear_of():
+    """The coaster card's "end" square sat on the north arrow (drawn top right whatever the track did): a track
+    ending top right (the synthetic plan mirrored north-south; it starts top left) gets the arrow in a corner it
+    keeps clear of, on the PNG map and as the labels' mark (stop 62's walk-through)."""
+    from dataclasses import replace
 
-    room = mark_room(centres, map_marks(frame, tuple(end))) - radii
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from maps.export.labels import segment_distances
+    from maps.export.mapplot import draw_map, map_view
+
+    plan = synthetic_plan("full-scale")
+    x0, y0, x1, y1, _, _ = map_view(plan)
+    ll = plan.lonlat.copy()
+    ll[:, 1] = y0 + y1 - ll[:, 1]
+    plan = replace(plan, lonlat=ll)
+    frac = (ll[:, :2] - (x0, y0)) / (x1 - x0, y1 - y0)
+    assert frac[-1, 0] > 0.85 and frac[-1, 1] > 0.75  # the track ends near the top-right corner
+    fig, ax = plt.subplots(figsize=(6, 5))
+    try:
+        draw_map(ax, plan, numbers=False, sea_room=False)
+        (north,) = [t for t in ax.texts if t.get_text() == "N"]
+        (nx, ny0), (_, ny1) = north.xyann, north.xy
+    finally:
+        plt.close(fig)
+    clear = segment_distances(frac, np.array([[nx, ny0]]), np.array([[nx, ny1]])).min()
+    # 0.07: labels.NORTH_CLEAR, the "N" and the end square apart on a card-sized map
+    assert clear >= 0.07, f"north arrow at {nx:.2f}, {ny0:.2f}-{ny1:.2f}: {clear:.3f} of the frame from the track"
+
+
+def _check_marks(centres: np.ndarray, radii: np.ndarray, frame: tuple[float, float, float, float], track: np.ndarray) -> None:
+    from maps.export.labels import map_marks, mark_room, north_place
+
+    room = mark_room(centres, map_marks(frame, tuple(track[-1]), north_place(track, frame))) - radii
     assert np.all(room >= 0.0), f"labels {np.flatnonzero(room < 0) + 1} on the north arrow or the end marker"
 
 
@@ -290,7 +323,7 @@ def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
         np.array([[lab.x, lab.y] for lab in labels]),
         np.array([lab.r for lab in labels]),
         (f.left, f.bottom, f.left + f.width, f.bottom + f.height),
-        f.xy(crowded.lonlat)[-1],
+        f.xy(crowded.lonlat),
     )
     fig = track_figure(crowded)
     try:
@@ -303,7 +336,7 @@ def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
             np.array([[0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1)] for b in boxes]),
             np.array([0.5 * min(b.width, b.height) for b in boxes]),
             (bb.x0, bb.y0, bb.x1, bb.y1),
-            ax.transData.transform(crowded.lonlat[-1:, :2])[0],
+            ax.transData.transform(crowded.lonlat[:, :2]),
         )
     finally:
         import matplotlib.pyplot as plt

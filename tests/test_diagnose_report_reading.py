@@ -42,6 +42,27 @@ def test_zero_delay_is_no_delay_found_not_an_implausible_one(ship):
     assert not ok and "at most" in why  # the upper bound, when that is the one violated
 
 
+@pytest.mark.parametrize("name, says", [("model-ship", "1 m model ship"), ("kvlcc2", "KVLCC2 tanker")])
+def test_rejected_wind_says_what_the_ship_is_from_its_profile(name, says):
+    """A rejected steady wind names the ship as its profile does (its name, what its description says it is, its
+    L, B, T): it read "as a loaded tanker of these main particulars would feel it" for the 1 m model ship too."""
+    prof = load_profile(name)
+    lim = plausible.MAX_WIND_REF_MPS * plausible.froude(prof)
+    ok, why = plausible.check("wind", {"speed_mps": 2 * lim}, prof)
+    assert not ok and "at most" in why
+    assert f"'{name}'" in why and says in why and f"L {prof.length_m:g} m" in why, why
+    # the ship is not called a tanker; the wind model's tanker coefficients are named as the model's
+    assert "as a loaded tanker" not in why and "loaded tanker's wind coefficients" in why, why
+
+
+def test_ship_words_of_a_made_profile_say_its_name_once():
+    """`profile new` writes "coaster: 3-DOF model made from ..." as the description: the name is not said twice."""
+    from dataclasses import replace
+
+    prof = replace(load_profile("kvlcc2"), name="coaster", description="coaster: 3-DOF model made from main particulars (x)")
+    assert plausible.ship_words(prof) == "'coaster', 3-DOF model made from main particulars,"
+
+
 def _verdict(rss0, rss1, den=1e6, rows=1000, q=1):
     rss0, rss1 = np.array(rss0, float), np.array(rss1, float)
     return verdict(rss0, rss1, np.full_like(rss0, den), np.full(len(rss0), rows), q, 1.0)

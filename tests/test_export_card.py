@@ -272,7 +272,9 @@ def test_design_table_lists_only_what_the_design_uses():
     assert rec["not_used"] and not set(rec["not_used"]) & set(rec["weights"])
     plan = replace(synthetic_plan("full-scale"), design=rec)
     head, rows = design_rows(plan)
-    assert {r[0] for r in rows} == set(rec["counts"]) and all(int(r[2]) > 0 for r in rows)
+    codes = {re.fullmatch(r"(?:.* \[(\w+)\])|(\w+)", r[0]).group(1, 2) for r in rows}  # "name [code]" or "code"
+    codes = {a or b for a, b in codes}
+    assert codes == set(rec["counts"]) and all(int(r[2]) > 0 for r in rows)
     assert any(line.startswith("Not used") and all(n in line for n in rec["not_used"]) for line in head)
     # a plan.json written before the split (zero weights among the weights) reads the same way
     old = dict(rec, weights={**rec["weights"], **dict.fromkeys(rec["not_used"], 0.0)}, not_used=[])
@@ -299,3 +301,38 @@ def test_step_table_says_heading_and_speed_are_at_the_start_waypoint(azi_plan):
     html = card_html(azi_plan, start=START)
     after = html.split("<h2>Steps in sailing order</h2>", 1)[1]
     assert after.lstrip().startswith("<p>hdg and speed: the ship&#x27;s at the step&#x27;s start waypoint (WP).</p>")
+
+
+def test_design_table_names_manoeuvres_as_the_steps_table_does(azi_plan):
+    """The card's "Experiment design" rows listed codes only (tau12 ...): each row now names the manoeuvre as
+    the steps table does (the name a master knows, the code in brackets), from the same source; a code the plan
+    does not sail keeps its code alone (stop 62's walk-through)."""
+    from dataclasses import replace
+
+    from maps.export.card import _table_rows, design_rows
+    from maps.trialdesign import design_counts
+    from primitives.ship import load_profile
+
+    plan = replace(azi_plan, design=design_counts(load_profile("full-scale")).record)
+    _, rows = design_rows(plan)
+    steps = {r[2] for r in _table_rows(step_sheets(plan, START))}
+    sailed = {st.primitive for st in plan.steps if st.segment == "informative"}
+    named = [r[0] for r in rows if r[0].endswith("]")]
+    assert named and all(n in steps for n in named), (named, steps)
+    assert {re.search(r"\[(\w+)\]$", n)[1] for n in named} == sailed & set(plan.design["counts"])
+    assert all(r[0] in plan.design["counts"] for r in rows if not r[0].endswith("]"))  # not sailed: the code
+
+
+def test_card_summary_line_has_separators_and_a_readable_duration(azi_plan):
+    """The HTML summary read "Ship full-scale Area helsinki Start ..." (spaces collapse in HTML) and
+    "duration 59:53 (h:)min:s": facts apart with "; ", the duration in h, min and s."""
+    from dataclasses import replace
+
+    page = card_html(replace(azi_plan, map_name="helsinki"), start=START)
+    line = re.search(r"<p>(Ship [^<]*)</p>", page)[1]
+    assert line == "Ship full-scale; area helsinki; start 2026-06-01 08:00 UTC", line
+    assert "(h:)min:s" not in page
+    m, sec = divmod(int(round(azi_plan.duration_s)), 60)
+    h, m = divmod(m, 60)
+    want = f"{h} h {m} min {sec} s" if h else f"{m} min {sec} s"
+    assert f"duration {want}, " in page

@@ -211,15 +211,28 @@ def test_csv_schedule_rows_columns_and_units(azi_plan, tmp_path):
     path = export_plan(azi_plan, "csv", tmp_path / "t.csv", start=START)[0]
     rows = list(csv.DictReader(io.StringIO(path.read_text())))
     assert len(rows) == len(azi_plan.t)
-    assert {"time_s", "lat", "lon", "heading_deg", "speed_mps", "speed_kn", "manoeuvre", "primitive", "n1", "alpha1_deg"} <= set(
-        rows[0]
-    )
+    assert {
+        "time_s",
+        "lat",
+        "lon",
+        "heading_deg",
+        "speed_mps",
+        "speed_kn",
+        "manoeuvre",
+        "primitive",
+        "n1_rpm",
+        "alpha1_deg",
+    } <= set(rows[0])
+    assert not {"n1", "n2"} & set(rows[0])  # a bare n1 of 24.85 (rev/s) read as rpm beside the card's 1452 rpm
     k = 300
     r = rows[k]
     assert float(r["lat"]) == pytest.approx(azi_plan.lonlat[k, 1], abs=1e-7)
     assert float(r["lon"]) == pytest.approx(azi_plan.lonlat[k, 0], abs=1e-7)
     assert float(r["speed_kn"]) == pytest.approx(float(r["speed_mps"]) * KN_PER_MPS, abs=0.01)
     assert float(r["alpha1_deg"]) == pytest.approx(np.degrees(azi_plan.inputs[k, 1]), abs=0.01)
+    # propellers in rpm, as the card's steps and the orders give them (the plan holds rev/s)
+    assert float(r["n1_rpm"]) == pytest.approx(60.0 * azi_plan.inputs[k, 0], abs=0.05)
+    assert float(r["n2_rpm"]) == pytest.approx(60.0 * azi_plan.inputs[k, 2], abs=0.05)
     headings = [float(x["heading_deg"]) for x in rows]
     assert min(headings) >= 0 and max(headings) < 360
     firsts = [x for x in rows if x["orders"]]

@@ -49,12 +49,12 @@ def _thin_reference(track: np.ndarray, step: float) -> np.ndarray:
 def _place_reference(texts, anchors, radii, track, frame, gap=1.0):
     """place_labels as first written (stop 44): every candidate of every ring measured against all the track's
     segments, the labels placed before one by one, the first free candidate else the least crowded one."""
-    from maps.export.labels import DEFAULT_OFFSET, map_marks, mark_room
+    from maps.export.labels import DEFAULT_OFFSET, map_marks, mark_room, north_place
 
     pts = _thin_reference(np.asarray(track, float).reshape(-1, 2), 1.0)
     anchors = np.asarray(anchors, float).reshape(-1, 2)
     a, b = np.vstack([pts[:-1], anchors]), np.vstack([pts[1:], anchors])
-    marks = map_marks(frame, tuple(pts[-1]))
+    marks = map_marks(frame, tuple(pts[-1]), north_place(track, frame))  # the arrow where the maps draw it
     x0, y0, x1, y1 = frame
     placed = []
     for _text, (ax, ay), r in zip(texts, anchors, radii):

@@ -298,6 +298,11 @@ def test_a_recording_without_a_speed_column_is_said_to_hold_its_speed(files, tmp
     assert len(notes) == 2, notes
     assert "nominal.csv: column 'u'" in notes[0] and "not followed" in notes[0] and "Hz (" in notes[0], notes
     assert "calibration.csv: no column 'u'" in notes[1] and "held" in notes[1], notes
+    # several files without u: one note naming them all (the bundled example printed it once a file)
+    bare = [_edit(f, tmp_path / f"bare_{f.name}", _drop("u")) for f in files]
+    notes = speed_notes(read(bare), bare)
+    assert len(notes) == 1 and notes[0].count("no column 'u'") == 1, notes
+    assert notes[0].startswith(", ".join(p.name for p in bare) + ": no column 'u'"), notes
     ship, data = bt.simulate_runs("speed_loss", 1, 4, length=0.35)
     slowing = [bt.write_csv(r, tmp_path / f"slow_{r.role}.csv") for r in bt.case_recordings(ship, data, "case1", 0)]
     # this draw's nominal and loaded runs slow by 7-9 % (low-passed sd) and are followed; its calibration

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from cli.app import _run
@@ -270,3 +271,23 @@ def test_save_profile_replaces_only_a_profile_steering_saved_without_force(repor
     again.write_text(saved.read_text())
     assert _run([*args, str(again)]) == 0 and _run([*args, str(mine), "--force"]) == 0
     assert is_saved_profile(mine)
+
+
+def test_pooled_rudder_offsets_are_one_per_record_named_as_in_steering_json(record, tmp_path, capsys):
+    """Two records pooled: the report gives one rudder offset per record, named by the record, with
+    steering.json's chosen ``delta_0@i`` values (it printed three unnamed ones: the unused starting value too)."""
+    import re
+
+    second = tmp_path / "sea-splendour-exp1-b.csv"
+    ss.write_csv(ss.simulate(ss.EXPERIMENT_1, 1), second)
+    out = tmp_path / "report"
+    assert _run(["steering", str(record), str(second), "--ship", "kvlcc2", "--model", "nomoto1", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    lines = [ln for ln in text.splitlines() if "rudder offset" in ln]
+    assert len(lines) == 1, text
+    got = dict(re.findall(r"(\S+\.csv) (-?\d+\.\d\d) deg", lines[0]))
+    params = json.loads((out / "steering.json").read_text())["chosen"]["parameters"]
+    want = {p.name: float(np.degrees(params[f"delta_0@{i}"]["value"])) for i, p in enumerate([record, second])}
+    assert set(got) == set(want), lines[0]
+    for name, deg in want.items():
+        assert float(got[name]) == pytest.approx(deg, abs=0.006)

@@ -228,7 +228,8 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     gets a note that its speed is held through the run (``oe`` then neither follows a ship that slows
     in its turns, :func:`speed.speed_inputs`, nor takes the heel reference's centripetal
     ``u r`` at the speed of the moment, :func:`restoring.referenced_heel`)."""
-    notes = []
+    notes: list[str] = []
+    no_u: dict[str, list[str]] = {}  # the files without u, by the speed held instead
     for rec, path in zip(recs, paths):
         if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:
             raise UserError(
@@ -246,11 +247,13 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
                 f"shorter than two periods of its {SPEED_LP_HZ:g} Hz low-pass"
             )
         if rec.u is None:
-            notes.append(
-                f"{path.name}: no column 'u' (surge speed): the speed is held at the run's "
-                f"{'speed_m_s' if rec.U is not None else 'profile speed'} throughout; a ship that slows in "
-                "its turns is not followed (give u to follow it)"
-            )
+            no_u.setdefault("speed_m_s" if rec.U is not None else "profile speed", []).append(path.name)
+    # one note for every file without u (the bundled example's three files printed it three times)
+    for held, names in no_u.items():
+        notes.append(
+            f"{', '.join(names)}: no column 'u' (surge speed): the speed is held at {'each' if len(names) > 1 else 'the'} "
+            f"run's {held} throughout; a ship that slows in its turns is not followed (give u to follow it)"
+        )
     return notes
 
 

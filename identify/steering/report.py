@@ -153,11 +153,23 @@ def _dimensional(r: ModelResult, res: SteeringResult) -> list[str]:
     K = est["K'"].value / tv
     bits = [f"K = {K:.4g} 1/s"]
     bits += [f"{k[:-1]} = {e.value * tv:.3g} s" for k, e in est.items() if k.startswith("T")]
-    p = r.fit.p
-    d0 = [v for k, v in p.items() if k.split("@")[0] == "delta_0"]
-    extra = f"; rudder delay T_D = {p.get('T_D', 0.0):.2f} s"
-    extra += f", rudder offset delta_0 = {', '.join(f'{np.degrees(v):.2f}' for v in d0)} deg" if d0 else ""
-    return [f"    at V = {res.V:.3g} m/s: " + ", ".join(bits) + extra]
+    extra = f"; rudder delay T_D = {r.fit.p.get('T_D', 0.0):.2f} s"
+    return [f"    at V = {res.V:.3g} m/s: " + ", ".join(bits) + extra] + _offset_text(r)
+
+
+def _offset_text(r: ModelResult) -> list[str]:
+    """The fitted rudder offsets delta_0, one per record, each named by its record: the free parameters that
+    steering.json's ``parameters`` holds (``delta_0@i`` of record i when pooled, ``delta_0`` for one record), not
+    the starting value a pooled fit keeps unused beside them."""
+    f = r.fit
+    names = [Path(d.source).name for d in f.records]
+    bits = []
+    for k in f.free:
+        base, _, at = k.partition("@")
+        if base == "delta_0":
+            name = names[int(at)] if at else names[0]
+            bits.append(f"{name} {np.degrees(f.p[k]):.2f} deg")
+    return [f"    rudder offset delta_0 ({'per record' if len(bits) > 1 else 'the record'}): " + ", ".join(bits)] if bits else []
 
 
 def _noise_corr_text(r: ModelResult) -> list[str]:

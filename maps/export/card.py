@@ -27,7 +27,6 @@ import numpy as np
 
 from maps.export._common import (
     KN_PER_MPS,
-    M_PER_NM,
     check_plan,
     clock,
     cross_track,
@@ -38,12 +37,12 @@ from maps.export._common import (
     vessel_name,
     waypoints,
 )
+from maps.export.cardsummary import DESIGN_COLS, design_rows, summary_lines
 from maps.export.chart import plan_chart
 from maps.export.figures import PlanFigures
 from maps.export.route import build_route
 from maps.export.wording import bridge_orders, knots, manoeuvre_name, phase
 from maps.plan import Plan
-from maps.sizing import row_text
 from primitives.io import atomic_write_bytes, atomic_write_text
 
 A4 = (8.27, 11.69)
@@ -150,112 +149,6 @@ def step_sheets(plan: Plan, start: datetime | str | None = None, sea_map: Any = 
     return out
 
 
-def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
-    """The experiment design behind the counts (``plan.design``): summary lines and one row
-    per primitive (weight, rounded count, planned count). Empty without a design."""
-    d = getattr(plan, "design", None) or {}
-    if not d:
-        return [], []
-    head = []
-    crit = d.get("criterion")
-    if crit:
-        ms = d.get("mean_subtraction")
-        head.append(
-            f"Design: {crit}-optimal"
-            + (
-                ""
-                if ms is None
-                else (
-                    ", with mean subtraction"
-                    if ms is True
-                    else ", without mean subtraction"
-                    if ms is False
-                    else f", mean subtraction {ms}"
-                )
-            )
-        )
-    eff = d.get("d_efficiency")
-    if isinstance(eff, (int, float)):
-        head.append(f"D-efficiency of the rounded design against the continuous optimum: {100.0 * eff:.1f} %")
-    for dr in d.get("dropped") or []:
-        if isinstance(dr, dict):
-            need = dr.get("needs_m")
-            loss = dr.get("efficiency_loss")
-            pair = isinstance(need, (list, tuple)) and len(need) == 2 and all(isinstance(x, (int, float)) for x in need)
-            name = str(dr.get("primitive"))
-            head.append(
-                (
-                    f"Dropped ({'not sailable with the rest of the mix' if dr.get('apart') else 'fits nowhere on the map'}): "
-                    f"{row_text(dr | {'primitive': name})}"
-                    if pair
-                    else f"Dropped {name}: fits nowhere on the map"
-                )
-                + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else "")
-            )
-    held = [h for h in d.get("held_parameters") or [] if isinstance(h, dict) and "parameter" in h]
-    if held:
-        from maps.searoom import held_text
-
-        head.append(f"Held at the profile's values (the manoeuvres that fit cannot identify them): {held_text(held)}")
-    weights = d.get("weights") or {}
-    counts = d.get("counts") or {}
-    # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named
-    # once, not listed with count 0
-    unused = [*(d.get("not_used") or []), *(n for n, x in weights.items() if float(x) <= 1e-4 and not counts.get(n))]
-    names = [n for n in dict.fromkeys([*weights, *counts]) if n not in unused]
-    rows = [
-        [n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, 0)), str(plan.counts.get(n, 0))] for n in names
-    ]
-    if unused:
-        head.append(f"Not used (no weight in the optimal design): {', '.join(dict.fromkeys(unused))}")
-    return head, rows
-
-
-def _resumed(plan: Plan) -> list[str]:
-    """A resumed plan's first line: what was sailed before it (``stats['resume']``)."""
-    r = plan.stats.get("resume")
-    if not r:
-        return []
-    steps = r["sailed"]["steps"]
-    rec = [s for s in steps if "recording" in s]
-    before = f", {r['earlier_runs']} recorded under the plans before" if r.get("earlier_runs") else ""
-    return [
-        f"RESUMED TRIAL: steps 1-{steps[-1]['step']} sailed ({clock(r['sailed']['sailed_s'])} (h:)min:s, {len(rec)} manoeuvre(s) "
-        f"recorded: {', '.join(s['primitive'] for s in rec)}{before}); this plan is the rest, from {r['position'][0]:.5f}, "
-        f"{r['position'][1]:.5f}, heading {r['position'][2]:03.0f}"
-    ]
-
-
-def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
-    phases = [phase(plan, st) for st in plan.steps]
-    n_man = sum(1 for p in phases if p in ("EXECUTE", "manoeuvre"))
-    kinds = [f"{n_man} manoeuvre{'s' if n_man != 1 else ''}"] + [
-        f"{n} {w}{'s' if n != 1 else ''}" for w in ("run-in", "stop", "transit") if (n := phases.count(w))
-    ]
-    chart = plan_chart(plan, sea_map)
-    return [
-        *_resumed(plan),
-        f"Ship {vessel}"
-        + (f" ({plan.ship})" if vessel != plan.ship else "")
-        + (f"   Area {plan.map_name}" if plan.map_name else "")
-        + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
-        f"{len(plan.steps)} steps: {', '.join(kinds)}; "
-        f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
-        "Plan "
-        + ("feasible" if plan.feasible else "NOT FEASIBLE")
-        + (", optimal" if plan.optimal else "")
-        + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
-        "Cross-track limits of the route: "
-        + (
-            "NOT checked against a chart (export with --map)"
-            if chart is None
-            else "the chart shows no land or no-go water near the track"
-            if chart.is_empty()
-            else "cut to the land-free water of the chart"
-        ),
-    ]
-
-
 # heading and speed in the steps table are the ship's at the step's start waypoint: unsaid, "steady
 # approach at 2.2 kn | 5.8 kn" and "turn on the spot | 5.8 kn" read as contradictions (a one-line
 # note, not longer column heads: a taller head row pushed the PDF's 44th row to the next page)
@@ -310,7 +203,7 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     # list of unused manoeuvres ran off the page's edge
     lines = [
         w
-        for line in _summary(plan, t0, vessel, sea_map) + d_head
+        for line in summary_lines(plan, t0, vessel, sea_map) + d_head
         for w in textwrap.wrap(line, PAGE1_CHARS, subsequent_indent="    ", break_on_hyphens=False) or [""]
     ]
     y = 0.935 - 0.017 * len(lines)
@@ -381,7 +274,6 @@ def detail_pages(sheets: list[dict], per_page: int | None = None) -> list[list[t
 
 
 DETAIL_LINES_PER_PAGE = 62
-DESIGN_COLS = ["design code", "weight", "rounded count", "planned"]
 
 
 def write_card_pdf(
@@ -471,7 +363,7 @@ def card_html(
         f"<style>{_CSS}</style></head><body>",
         f"<h1>Sea trial card: {e(vname)}</h1>",
     ]
-    h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]
+    h += [f"<p>{e(line)}</p>" for line in summary_lines(plan, t0, vname, sea_map)]
     h.append("<div class='abort'><b>ABORT the manoeuvre (stop, steer clear) if:</b><ul>")
     h += [f"<li>{e(a)}</li>" for a in abort_criteria(plan)]
     h.append("</ul></div>")

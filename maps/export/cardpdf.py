@@ -282,7 +282,7 @@ def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes
     _page1(doc, plan, t0, sea_map, vessel)
     tables = _Tables(doc, plan, 2)
     tables.table(f"steps in sailing order ({STEPS_NOTE_PDF})", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS)
-    tables.table("experiment design", DESIGN_COLS, design_rows(plan)[1], [0.4, 0.2, 0.2, 0.2])
+    tables.table("experiment design", DESIGN_COLS, design_rows(plan)[1], [0.55, 0.15, 0.15, 0.15])
     _detail_pages(doc, plan, detail_pages(sheets), tables.page_no + 1)
     draw_states_page(doc.pdf, FONT, plan)
     return _without_date(bytes(doc.pdf.output()))

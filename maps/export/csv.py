@@ -3,14 +3,16 @@
 Columns: time from start (s and h:mm:ss), UTC time, lat, lon (deg, 7 decimals), local x north
 and y east (m), heading (deg, 0-360 from north), speed over ground (m/s and kn), the manoeuvre
 (number, segment: run-in / informative / transit, primitive, its orders on the manoeuvre's
-first row) and the commanded inputs (angles in
-degrees, column named ``<input>_deg``).
+first row) and the commanded inputs: angles in degrees (column ``<input>_deg``), propeller speeds in
+rpm as the card and the orders give them (column ``<input>_rpm``: the plan's rev/s x 60), forces as
+the plan holds them (column ``<input>``).
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import re
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -22,9 +24,21 @@ from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 
+_PROPELLER = re.compile(r"n\d*")  # n (single screw), n1, n2, ... (thrusters, pods): rev/s in the plan
 
-def _input_columns(plan: Plan) -> list[tuple[str, bool]]:
-    return [(f"{n}_deg", True) if (n.startswith("alpha") or n == "delta") else (n, False) for n in plan.input_names]
+
+def _input_columns(plan: Plan) -> list[tuple[str, str]]:
+    """Each input's column name and kind: "deg" (an angle, the plan's rad), "rpm" (a propeller, the plan's
+    rev/s: a crew reads rpm on the card and the orders, so the column says and holds rpm) or "" (as held)."""
+    cols = []
+    for n in plan.input_names:
+        if n.startswith(("alpha", "delta")):
+            cols.append((f"{n}_deg", "deg"))
+        elif _PROPELLER.fullmatch(n):
+            cols.append((f"{n}_rpm", "rpm"))
+        else:
+            cols.append((n, ""))
+    return cols
 
 
 def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1) -> str:
@@ -96,9 +110,9 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
             st.primitive if st else "",
             orders,
         ]
-        for j, (_, is_angle) in enumerate(cols):
+        for j, (_, kind) in enumerate(cols):
             v = inputs[min(k, len(inputs) - 1)][j] if n_in else float("nan")
-            row.append(f"{np.degrees(v):.2f}" if is_angle else f"{v:.4g}")
+            row.append(f"{np.degrees(v):.2f}" if kind == "deg" else f"{60.0 * v:.1f}" if kind == "rpm" else f"{v:.4g}")
         w.writerow(row)
     return buf.getvalue()
 

@@ -92,18 +92,37 @@ Mark = tuple[tuple[float, float], tuple[float, float], float]  # a segment (ends
 # the map's own marks, drawn by both maps (mapplot.draw_map, pdfmap.MapWriter) from these figures
 NORTH_FS = 9.0  # the north arrow's "N"
 NORTH_X, NORTH_Y = 0.95, (0.85, 0.95)  # the arrow in axes fractions: its "N" at the first height, its tip at the second
+# where the arrow may go, in this order: top right, top left, bottom left (bottom right holds the scale bar); a
+# track ending top right put the "end" square on the arrow (the README's coaster, stop 62's walk-through)
+NORTH_PLACES = ((NORTH_X, NORTH_Y), (1.0 - NORTH_X, NORTH_Y), (1.0 - NORTH_X, (1.0 - NORTH_Y[1], 1.0 - NORTH_Y[0])))
+NORTH_CLEAR = 0.07  # of the frame: the "N" (9 pt) and the end square (9 pt) on a card's map of some 300 pt a side
 END_MARKER_PT = 9.0  # the end marker's size (matplotlib's ms: a square 9 pt a side)
 
 
-def map_marks(frame: tuple[float, float, float, float], end: tuple[float, float]) -> list[Mark]:
-    """What a label must not cover besides the track: the north arrow (its "N" and shaft from
-    NORTH_Y[0] to NORTH_Y[1] of the frame's height at NORTH_X of its width, as both maps draw
-    it) and the end marker at ``end`` (the square's half-diagonal)."""
+def north_place(track: np.ndarray, frame: tuple[float, float, float, float]) -> tuple[float, tuple[float, float]]:
+    """Where both maps draw the north arrow (x, (y of its "N", y of its tip) in fractions of ``frame``): the first
+    of :data:`NORTH_PLACES` that the track (k, 2, in the frame's units; its first and last points carry the start
+    and end markers) keeps :data:`NORTH_CLEAR` from, else the one it keeps farthest from."""
     x0, y0, x1, y1 = frame
-    xn = x0 + NORTH_X * (x1 - x0)
-    north = ((xn, y0 + NORTH_Y[0] * (y1 - y0)), (xn, y0 + NORTH_Y[1] * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
+    pts = (np.asarray(track, float).reshape(-1, 2) - (x0, y0)) / (max(x1 - x0, 1e-12), max(y1 - y0, 1e-12))
+    if not len(pts):
+        return NORTH_PLACES[0]
+    clear = [float(segment_distances(pts, np.array([[x, ya]]), np.array([[x, yb]])).min()) for x, (ya, yb) in NORTH_PLACES]
+    return next((p for p, c in zip(NORTH_PLACES, clear) if c >= NORTH_CLEAR), NORTH_PLACES[int(np.argmax(clear))])
+
+
+def map_marks(
+    frame: tuple[float, float, float, float], end: tuple[float, float], north: tuple[float, tuple[float, float]] | None = None
+) -> list[Mark]:
+    """What a label must not cover besides the track: the north arrow (its "N" and shaft from
+    y[0] to y[1] of the frame's height at x of its width, ``north`` = (x, y) as :func:`north_place` gives it
+    and both maps draw it; default the top right) and the end marker at ``end`` (the square's half-diagonal)."""
+    x0, y0, x1, y1 = frame
+    nx, ny = north or (NORTH_X, NORTH_Y)
+    xn = x0 + nx * (x1 - x0)
+    north_mark = ((xn, y0 + ny[0] * (y1 - y0)), (xn, y0 + ny[1] * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
     e = (float(end[0]), float(end[1]))
-    return [north, (e, e, END_MARKER_PT / np.sqrt(2.0))]
+    return [north_mark, (e, e, END_MARKER_PT / np.sqrt(2.0))]
 
 
 def mark_room(p: np.ndarray, marks: list[Mark]) -> np.ndarray:
@@ -132,7 +151,7 @@ def place_labels(
     # the track's segments and the entry points themselves (stars and marks sit there)
     a, b = np.vstack([pts[:-1], anchors]), np.vstack([pts[1:], anchors])
     if marks is None:
-        marks = map_marks(frame, tuple(pts[-1])) if len(pts) else []
+        marks = map_marks(frame, tuple(pts[-1]), north_place(track, frame)) if len(pts) else []
     placed: list[Label] = []
     for text, (ax, ay), r in zip(texts, anchors, radii):
         rings = [np.array([[ax + DEFAULT_OFFSET[0], ay + DEFAULT_OFFSET[1]]])]

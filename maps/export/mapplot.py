@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
 from maps.export._common import M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
-from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y  # noqa: E402
+from maps.export.labels import END_MARKER_PT, NORTH_FS, north_place  # noqa: E402
 from maps.export.wording import manoeuvre_name  # noqa: E402
 from maps.plan import Plan, PlanStep  # noqa: E402
 
@@ -404,10 +404,11 @@ def draw_map(
     ax.xaxis.set_major_locator(MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
     _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
+    nx, ny = north_place(plan.lonlat[:, :2], (x0, y0, x1, y1))  # a corner the track keeps clear of
     ax.annotate(
         "N",
-        xy=(NORTH_X, NORTH_Y[1]),
-        xytext=(NORTH_X, NORTH_Y[0]),
+        xy=(nx, ny[1]),
+        xytext=(nx, ny[0]),
         xycoords="axes fraction",
         ha="center",
         fontsize=NORTH_FS,

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
-from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y, Label, leader, place_labels
+from maps.export.labels import END_MARKER_PT, NORTH_FS, Label, leader, north_place, place_labels
 from maps.export.mapplot import (
     DEPTH_EDGE,
     EXECUTE_COLOUR,
@@ -276,12 +276,13 @@ class MapWriter(Painter):
         (p0, p1) = self.page_xy(np.array([[bx, by], [bx + length, by]]))
         self.out("q")
         self.polyline(np.array([p0, p1]), "k", 3.0, cap=2)
-        # north arrow: from above the "N" (axes fraction 0.85) to 0.95, a filled head as '-|>'
+        # north arrow: from above the "N" to the tip, a filled head as '-|>', in the corner the PNG map uses
         fs = NORTH_FS
+        nx, ny = north_place(self.plan.lonlat[:, :2], (f.x0, f.y0, f.x1, f.y1))
         ax_, ay0, ay1 = (
-            f.left + NORTH_X * f.width,
-            f.bottom + NORTH_Y[0] * f.height + 0.76 * fs + 2,
-            f.bottom + NORTH_Y[1] * f.height - 2,
+            f.left + nx * f.width,
+            f.bottom + ny[0] * f.height + 0.76 * fs + 2,
+            f.bottom + ny[1] * f.height - 2,
         )
         head = 0.4 * fs
         self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
@@ -297,7 +298,7 @@ class MapWriter(Painter):
             self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
         self.out("Q")
         self.text(0.5 * (p0[0] + p1[0]), p0[1] + 0.012 * f.height, label, 7, ha="center", va="bottom")
-        self.text(ax_, f.bottom + NORTH_Y[0] * f.height, "N", fs, bold=True, ha="center")
+        self.text(ax_, f.bottom + ny[0] * f.height, "N", fs, bold=True, ha="center")
         xs, ys = self._tick_values
         for x, v in zip(xt, xs):
             self.text(x, f.bottom - 7.0, deg_min(v, "E", "W", 3).replace("'", "′"), TICK_FS, ha="center", va="top")

@@ -52,7 +52,7 @@ def _core(plan: Plan, st: PlanStep) -> tuple[np.ndarray, np.ndarray]:
     return v, dpsi
 
 
-def _standard_name(name: str) -> str | None:
+def standard_name(name: str) -> str | None:
     """The IMO/ITTC name of a standard manoeuvre from the design's code, else None."""
     if m := re.fullmatch(r"zigzag_(\d+)_(\d+)_([sp])", name):
         return f"{m[1]}/{m[2]} zig-zag to {_SIDE[m[3]]}"
@@ -76,7 +76,7 @@ def manoeuvre_name(plan: Plan, st: PlanStep) -> str:
         return f"steady approach at {_kn(v)} kn"
     if st.segment == "transit" or st.kind == "basic":
         return _basic_name(name, desc)
-    std = _standard_name(name)
+    std = standard_name(name)
     if std:
         return std
     v, dpsi = _core(plan, st)
