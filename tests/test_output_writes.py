@@ -144,3 +144,20 @@ def test_a_path_under_a_file_is_a_write_error_naming_the_output(tmp_path):
     with pytest.raises(WriteError) as info:
         atomic_write_text(tmp_path / "afile" / "t.csv", "a\n")
     assert info.value.filename == str(tmp_path / "afile" / "t.csv") and info.value.strerror
+
+
+def test_a_full_disk_at_the_sweeps_plot_says_the_finished_table_was_kept(tmp_path, monkeypatch, capsys, full_disk):
+    """The plot is written after the table: a disk that fills between them left the table behind under an error
+    that said only 'nothing was written' (review of stop 62). The table (the sweep's cells) is kept, and said so."""
+    monkeypatch.chdir(tmp_path)
+    Path("s.toml").write_text(
+        '[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6]\ncriteria = ["D"]\n'
+        'mean_subtraction = ["batchwise"]\nseed = 1\n'
+    )
+    full_disk.name = "s.png"
+    assert _run(["sweep", "s.toml", "--out", "s.csv"]) == 1
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "wrote s.csv (the table; its plot was not written)",
+        "error: s.png: cannot be written (No space left on device); nothing was written to it",
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.csv", "s.toml"]
