@@ -76,7 +76,8 @@ def register(app: typer.Typer) -> None:
             from identify.steering.saved_profile import check_base, check_save_path
             from primitives.ship import load_profile
 
-            check_save_path(save_profile, force=force)  # before the fits' seconds; written by write_saved_profile
+            # before the fits' seconds; written by write_saved_profile
+            check_save_path(save_profile, force=force, option="--save-profile")
             check_base(load_profile(ship))
         res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x, noise_corr)
         doc = document(res)
@@ -96,7 +97,7 @@ def register(app: typer.Typer) -> None:
         if saved is not None:
             from identify.steering.saved_profile import write_saved_profile
 
-            write_saved_profile(saved, save_profile, force=force)
+            write_saved_profile(saved, save_profile, force=force, option="--save-profile")
             print(f"wrote {save_profile}: {saved.source_line}", file=sys.stderr)
         if not res.main.ok:
             # one line on stderr, as every refusal: the report above (stdout) has the table of every model's result

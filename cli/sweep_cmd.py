@@ -48,7 +48,7 @@ def register(app: typer.Typer) -> None:
             out = out.with_name(f"{out.stem}.partial{out.suffix}")  # marked partial in its name: never taken for a full sweep
         table = write_table(rows, out, force=force, option="--out")  # checked before the run too: refused before any work
         try:
-            fig = plot_summary(rows, plot or out.with_suffix(".png"), force=force)
+            fig = plot_summary(rows, plot or out.with_suffix(".png"), force=force, option="--plot")
         except OSError:  # a full disk after the table: the finished table is kept (hours of cells), and said so
             typer.echo(f"wrote {table} (the table; its plot was not written)", err=True)
             raise

@@ -77,4 +77,5 @@ def register(app: typer.Typer) -> None:
 
         whole(seed, "--seed", 0, 2**63 - 1)
         in_range(noise, "--noise", 0.0, 100.0, "x Table 4.1's noise levels")
-        typer.echo(f"wrote {simulate_file(out, seed, noise, force=force)}")  # refuses OUT before simulating
+        wrote = simulate_file(out, seed, noise, force=force, option="OUT")  # refuses OUT before simulating
+        typer.echo(f"wrote {wrote}")

@@ -73,7 +73,7 @@ def check_outputs(out: str | Path, plot: str | Path | None = None, option: str =
     own path again when they write (a notebook's call has no CLI to check first)."""
     _check_table(out, option, replace)
     if plot is not None:
-        _check_plot(plot, replace)
+        _check_plot(plot, "--plot", replace)
 
 
 def _check_table(path: str | Path, option: str, replace: bool) -> None:
@@ -85,11 +85,11 @@ def _check_table(path: str | Path, option: str, replace: bool) -> None:
         raise SweepError(str(exc)) from None
 
 
-def _check_plot(path: str | Path, replace: bool) -> None:
+def _check_plot(path: str | Path, option: str, replace: bool) -> None:
     from primitives.io import FIGURE_SUFFIXES, check_out_file
 
     try:
-        check_out_file(path, FIGURE_SUFFIXES, "--plot", "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
+        check_out_file(path, FIGURE_SUFFIXES, option, "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
     except UserError as exc:
         raise SweepError(str(exc)) from None
 
@@ -377,10 +377,11 @@ def write_table(rows: list[dict[str, Any]], path: str | Path, *, force: bool = F
     return atomic_write_text(path, out.getvalue())
 
 
-def plot_summary(rows: list[dict[str, Any]], path: str | Path, *, force: bool = False) -> Path:
+def plot_summary(rows: list[dict[str, Any]], path: str | Path, *, force: bool = False, option: str = "plot") -> Path:
     """Bar chart of each cell's efficiency against the uniform mix. An existing file is replaced only if
-    a sweep drew it (:func:`is_sweep_plot`) or ``force``; otherwise SweepError, before any drawing."""
-    _check_plot(path, force)
+    a sweep drew it (:func:`is_sweep_plot`) or ``force``; otherwise SweepError, before any drawing
+    (``option`` names the path: the CLI's "--plot")."""
+    _check_plot(path, option, force)
     import matplotlib
 
     matplotlib.use("Agg")

@@ -285,21 +285,23 @@ def check_out_file(
     ``ours(path)`` recognises it by its content as a file ``writer`` wrote (a sweep table by its header row, a
     recording by its '# source:' line), as ``export`` replaces only its own files (:mod:`maps.export.ownership`).
     Without ``ours`` any existing file is refused (a profile the user may have edited by hand). By default
-    (``replace=True``) the command replaces its output file."""
+    (``replace=True``) the command replaces its output file. ``option`` a plain word ("table", "path"): a library
+    writer called from a notebook, whose fix is the keyword (``force=True``), not the command line's ``--force``."""
     from primitives.errors import UserError
 
     path = Path(path)
+    fix = "--force" if option.startswith("-") or option.isupper() else "force=True"  # '--out', 'OUT': the CLI's
     if path.is_dir():  # said as such, not as a missing extension
         raise UserError(f"{option} {path}: is a directory; give a file path ending {' or '.join(suffixes)}")
     if path.suffix.lower() not in suffixes:
         raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
     if not replace and os.path.lexists(path):
         if ours is None:
-            raise UserError(f"{option} {path}: the file exists; pass --force to replace it, or choose another {option}")
+            raise UserError(f"{option} {path}: the file exists; pass {fix} to replace it, or choose another {option}")
         if not _recognised(ours, path):
             raise UserError(
                 f"{option} {path}: exists and was not written by {writer}; move it, choose another {option}, "
-                "or pass --force to replace it"
+                f"or pass {fix} to replace it"
             )
     return check_out_path(path, kind="file", option=option)
 

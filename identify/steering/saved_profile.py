@@ -226,22 +226,23 @@ def is_saved_profile(path: Path) -> bool:
     return any(line.startswith(f"# {SAVED_HEADER} ") for line in first_lines(path, 1))
 
 
-def check_save_path(path: str | Path, *, force: bool = False) -> Path:
-    """Refuse a ``--save-profile`` path that is not a .toml file that can be written, or an existing file that
-    :func:`is_saved_profile` does not recognise, unless ``force`` (one line naming it and ``--force``)."""
+def check_save_path(path: str | Path, *, force: bool = False, option: str = "path") -> Path:
+    """Refuse a profile path that is not a .toml file that can be written, or an existing file that
+    :func:`is_saved_profile` does not recognise, unless ``force`` (one line naming it, as ``option``: the CLI's
+    "--save-profile", and the fix)."""
     from primitives.io import check_out_file
 
     return check_out_file(
-        path, (".toml",), "--save-profile", "profile", replace=force, ours=is_saved_profile, writer=f"shiptrial {SAVED_BY}"
+        path, (".toml",), option, "profile", replace=force, ours=is_saved_profile, writer=f"shiptrial {SAVED_BY}"
     )
 
 
-def write_saved_profile(saved: SavedProfile, path: str | Path, *, force: bool = False) -> Path:
+def write_saved_profile(saved: SavedProfile, path: str | Path, *, force: bool = False, option: str = "path") -> Path:
     """Write ``saved`` (:func:`steering_profile`) to ``path`` atomically; an existing file that no
     ``steering --save-profile`` wrote is refused unless ``force`` (:func:`check_save_path`)."""
     from primitives.io import atomic_write_text
 
-    return atomic_write_text(check_save_path(path, force=force), saved.text)
+    return atomic_write_text(check_save_path(path, force=force, option=option), saved.text)
 
 
 def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, records: list[str]) -> SavedProfile:
