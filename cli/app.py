@@ -97,9 +97,13 @@ def _run_app(argv: list[str] | None) -> int:
 
     from cli.commands import app
     from cli.errors import user_error_types
+    from primitives.io import WriteError
 
     try:
         rc = app(args=argv, prog_name="shiptrial", standalone_mode=False)
+    except WriteError as exc:  # before user_error_types: not FileNotFoundError's wording
+        print(f"error: {exc.filename}: cannot be written ({exc.strerror}); nothing was written to it", file=sys.stderr)
+        return 1
     except user_error_types() as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"error: {msg}", file=sys.stderr)
@@ -111,6 +115,9 @@ def _run_app(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:  # any other file the OS refused: its name and the OS's reason, not a traceback
+        print(f"error: {exc.filename or type(exc).__name__}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
     except Exception as exc:
         # click (vendored by typer) usage errors carry their own message and exit code
         if hasattr(exc, "show") and hasattr(exc, "exit_code"):

@@ -21,6 +21,8 @@ def run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
             job()
         except Failed:  # a nested writer's, worded already
             raise
+        except OSError as exc:  # a full disk, no permission: the OS's reason, not a traceback's wording
+            raise Failed(f"{path.name}: writing {what} failed: {exc.strerror or exc}; nothing was written") from exc
         except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
             raise Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
 

@@ -59,7 +59,7 @@ def register(app: typer.Typer) -> None:
         from cli.options import check_input_file
         from identify.steering.api import ESTIMATORS, MODELS, identify_files
         from identify.steering.report import document, text, write_plots
-        from primitives.io import atomic_output_dir, atomic_write_text, check_out_file, check_replaceable_dir
+        from primitives.io import atomic_output_dir, atomic_write_text, check_replaceable_dir
         from primitives.validate import one_of
 
         one_of(model, "--model", MODELS)
@@ -73,18 +73,11 @@ def register(app: typer.Typer) -> None:
         if out is not None:
             check_replaceable_dir(out)
         if save_profile is not None:
-            from identify.steering.saved_profile import check_base, is_saved_profile
+            from identify.steering.saved_profile import check_base, check_save_path
             from primitives.ship import load_profile
 
-            check_out_file(
-                save_profile,
-                (".toml",),
-                "--save-profile",
-                "profile",
-                replace=force,
-                ours=is_saved_profile,
-                writer="shiptrial steering --save-profile",
-            )
+            # before the fits' seconds; written by write_saved_profile
+            check_save_path(save_profile, force=force, option="--save-profile")
             check_base(load_profile(ship))
         res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x, noise_corr)
         doc = document(res)
@@ -102,7 +95,9 @@ def register(app: typer.Typer) -> None:
         for w in res.warnings if json_out else ():
             print(f"warning: {w}", file=sys.stderr)
         if saved is not None:
-            atomic_write_text(save_profile, saved.text)
+            from identify.steering.saved_profile import write_saved_profile
+
+            write_saved_profile(saved, save_profile, force=force, option="--save-profile")
             print(f"wrote {save_profile}: {saved.source_line}", file=sys.stderr)
         if not res.main.ok:
             # one line on stderr, as every refusal: the report above (stdout) has the table of every model's result

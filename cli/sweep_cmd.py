@@ -46,8 +46,12 @@ def register(app: typer.Typer) -> None:
                 typer.echo("nothing written (pass --keep-partial to keep the finished cells)", err=True)
                 raise typer.Exit(130)
             out = out.with_name(f"{out.stem}.partial{out.suffix}")  # marked partial in its name: never taken for a full sweep
-        table = write_table(rows, out)
-        fig = plot_summary(rows, plot or out.with_suffix(".png"))
+        table = write_table(rows, out, force=force, option="--out")  # checked before the run too: refused before any work
+        try:
+            fig = plot_summary(rows, plot or out.with_suffix(".png"), force=force, option="--plot")
+        except OSError:  # a full disk after the table: the finished table is kept (hours of cells), and said so
+            typer.echo(f"wrote {table} (the table; its plot was not written)", err=True)
+            raise
         failed = [r for r in rows if r.get("error")]
         if json_out:
             typer.echo(

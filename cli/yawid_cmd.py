@@ -72,14 +72,10 @@ def register(app: typer.Typer) -> None:
         ),
     ) -> None:
         """Simulate the 10-minute forward-only identification run of the naval vessel (example input of `yawid`)."""
-        from identify.yawid.api import is_simulated_recording, simulate_file
-        from primitives.io import check_out_file
+        from identify.yawid.api import simulate_file
         from primitives.validate import in_range, whole
 
         whole(seed, "--seed", 0, 2**63 - 1)
         in_range(noise, "--noise", 0.0, 100.0, "x Table 4.1's noise levels")
-        check_out_file(
-            out, (".csv",), "OUT", "recording", replace=force, ours=is_simulated_recording, writer="shiptrial yawid-sim"
-        )
-
-        typer.echo(f"wrote {simulate_file(out, seed, noise)}")
+        wrote = simulate_file(out, seed, noise, force=force, option="OUT")  # refuses OUT before simulating
+        typer.echo(f"wrote {wrote}")

@@ -20,7 +20,6 @@ All are pure functions on :class:`diagnose.recording.Recording` (no I/O) and rai
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -180,11 +179,6 @@ def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
     return expect, top, what
 
 
-def _ship_words(name: str) -> list[str]:
-    """A ship name's words without case, spaces, '_' and '-': 'KVLCC2_Linear' is ['kvlcc2', 'linear']."""
-    return [w for w in re.split(r"[\s_-]+", name.strip().lower()) if w]
-
-
 def ship_header_note(rec, profile) -> str | None:
     """A note when the recording's ``# ship:`` header names another ship than the profile diagnosed against.
 
@@ -193,9 +187,12 @@ def ship_header_note(rec, profile) -> str | None:
     refused by its content first (its input columns, speed range, Froude scale or sample time: a KVLCC2 run against
     the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. The header
     must name the profile or the vessel it models (its ``vessel`` field: kvlcc2-linear is a model of the kvlcc2),
-    equal but for case, spaces, '_' and '-' (stop 62: a prefix let 'model' pass for 'model-ship')."""
+    equal but for case and punctuation (:func:`primitives.profile_tables.names_ship`, mass's rule too; stop 62: a
+    prefix let 'model' pass for 'model-ship')."""
+    from primitives.profile_tables import names_ship
+
     said = str(rec.meta.get("ship", "")).strip()
-    if not said or _ship_words(said) in (_ship_words(profile.name), _ship_words(profile.vessel or profile.name)):
+    if not said or names_ship(said, profile.name, profile.vessel):
         return None
     return (
         f"{rec.source}: header '# ship: {said}' but --ship is {profile.name!r}: diagnosed against "

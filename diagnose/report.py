@@ -327,11 +327,19 @@ def leftover_lines(d: Diagnosis) -> list[str]:
     return lines
 
 
+def recording_line(rec) -> str:
+    """The report's line of a recording's notes. A note worded to stand alone on stderr names the recording
+    itself (the ``# ship:`` header note: 'run.csv: header ...'); the line names it once (stop 62: 'Recording
+    run.csv: run.csv: header ...')."""
+    lead = f"{rec.source}: "
+    return f"Recording {rec.source}: " + "; ".join(n.removeprefix(lead) for n in rec.notes) + "."
+
+
 def to_text(d: Diagnosis) -> str:
     lines = [f"Diagnosis of {', '.join(p.rec.source for p in d.preps)} against ship {d.profile.name!r} ({d.baseline_source})"]
     for p in d.preps + d.val_preps:
         if p.rec.notes:
-            lines.append(f"Recording {p.rec.source}: " + "; ".join(p.rec.notes) + ".")
+            lines.append(recording_line(p.rec))
     lines += location_lines(d) + finding_lines(d) + leftover_lines(d)
     if d.refit_parameters:
         lines.append(

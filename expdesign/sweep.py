@@ -69,13 +69,27 @@ def check_outputs(out: str | Path, plot: str | Path | None = None, option: str =
     """Refuse, before any work, a table or plot path whose extension does not name its format
     (or that cannot be written); ``option`` names the table path in the message. ``replace=False``
     (no ``--force``): an existing file that is not a sweep's own table or plot (:func:`is_sweep_table`,
-    :func:`is_sweep_plot`) is refused too."""
+    :func:`is_sweep_plot`) is refused too. :func:`write_table` and :func:`plot_summary` check their
+    own path again when they write (a notebook's call has no CLI to check first)."""
+    _check_table(out, option, replace)
+    if plot is not None:
+        _check_plot(plot, "--plot", replace)
+
+
+def _check_table(path: str | Path, option: str, replace: bool) -> None:
+    from primitives.io import check_out_file
+
+    try:
+        check_out_file(path, TABLE_SUFFIXES, option, "table", replace=replace, ours=is_sweep_table, writer=WRITER)
+    except UserError as exc:
+        raise SweepError(str(exc)) from None
+
+
+def _check_plot(path: str | Path, option: str, replace: bool) -> None:
     from primitives.io import FIGURE_SUFFIXES, check_out_file
 
     try:
-        check_out_file(out, TABLE_SUFFIXES, option, "table", replace=replace, ours=is_sweep_table, writer=WRITER)
-        if plot is not None:
-            check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
+        check_out_file(path, FIGURE_SUFFIXES, option, "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
     except UserError as exc:
         raise SweepError(str(exc)) from None
 
@@ -335,16 +349,17 @@ def run_sweep(cells: list[Cell], engine: Engine | str | None = None, progress: b
             eng.close()
 
 
-def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
-    """Write rows as CSV (or Parquet for a .parquet path when pyarrow is installed), atomically;
-    a path :func:`check_outputs` refuses is refused here too (library callers skip the CLI's check)."""
+def write_table(rows: list[dict[str, Any]], path: str | Path, *, force: bool = False, option: str = "table") -> Path:
+    """Write rows as CSV (or Parquet for a .parquet path when pyarrow is installed), atomically.
+    An existing file is replaced only if a sweep wrote it (:func:`is_sweep_table`) or ``force``
+    (the CLI's ``--force``): otherwise SweepError, in the CLI's words (``option`` names the path)."""
     import csv
     import io
 
     from primitives.io import atomic_write_bytes, atomic_write_text
 
     path = Path(path)
-    check_outputs(path, option="table")
+    _check_table(path, option, force)
     if path.suffix.lower() == ".parquet":
         try:
             import pyarrow as pa
@@ -362,8 +377,11 @@ def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
     return atomic_write_text(path, out.getvalue())
 
 
-def plot_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
-    """Bar chart of each cell's efficiency against the uniform mix."""
+def plot_summary(rows: list[dict[str, Any]], path: str | Path, *, force: bool = False, option: str = "plot") -> Path:
+    """Bar chart of each cell's efficiency against the uniform mix. An existing file is replaced only if
+    a sweep drew it (:func:`is_sweep_plot`) or ``force``; otherwise SweepError, before any drawing
+    (``option`` names the path: the CLI's "--plot")."""
+    _check_plot(path, option, force)
     import matplotlib
 
     matplotlib.use("Agg")

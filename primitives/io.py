@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -114,21 +115,47 @@ def hash_sources(h: Any, root: Path, packages: Sequence[str], suffixes: Sequence
     return h
 
 
+class WriteError(OSError):
+    """An output that could not be written (a full disk, no permission, a file where a directory should be), its
+    ``filename`` the output's path, never the temporary it was being written to; nothing of it is left behind."""
+
+
+def write_error(exc: OSError, path: str | Path) -> WriteError:
+    """``exc`` (the OS's reason) as a :class:`WriteError` naming ``path``."""
+    return WriteError(exc.errno, exc.strerror or str(exc), str(path))
+
+
+def staged_write_error(exc: OSError, staging: Path, dest: Path) -> WriteError | None:
+    """A write into ``staging`` (a temporary directory published as ``dest``) that failed, as a :class:`WriteError`
+    naming the output under ``dest`` (an atomic writer's temporary under the name it was for); None for an error
+    about another file (an input read while writing: not a failed write)."""
+    name = Path(str(exc.filename)) if exc.filename is not None else None
+    if name is None or not (name == staging or staging in name.parents):
+        return None
+    return write_error(exc, dest / name.relative_to(staging))
+
+
 def atomic_write_bytes(path: str | Path, data: bytes | Sequence[bytes | memoryview]) -> Path:
     """Write to a temporary file beside ``path`` and rename: never a half-written file. ``data`` may be a
-    sequence of buffers, written one after another (a large cache entry is not joined in memory first)."""
+    sequence of buffers, written one after another (a large cache entry is not joined in memory first).
+    An OSError (disk full, ...) removes the temporary and is raised as a :class:`WriteError` naming ``path``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    except OSError as exc:
+        raise write_error(exc, path) from exc
     try:
         with os.fdopen(fd, "wb") as fh:
             for part in [data] if isinstance(data, (bytes, bytearray, memoryview)) else data:
                 fh.write(part)
         os.chmod(tmp, 0o644)  # mkstemp makes 0600; outputs are handed to crews and colleagues
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+    except BaseException as exc:
+        with contextlib.suppress(OSError):  # the reason to report is the write's, not the clean-up's
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise write_error(exc, path) from exc
         raise
     return path
 
@@ -258,21 +285,23 @@ def check_out_file(
     ``ours(path)`` recognises it by its content as a file ``writer`` wrote (a sweep table by its header row, a
     recording by its '# source:' line), as ``export`` replaces only its own files (:mod:`maps.export.ownership`).
     Without ``ours`` any existing file is refused (a profile the user may have edited by hand). By default
-    (``replace=True``) the command replaces its output file."""
+    (``replace=True``) the command replaces its output file. ``option`` a plain word ("table", "path"): a library
+    writer called from a notebook, whose fix is the keyword (``force=True``), not the command line's ``--force``."""
     from primitives.errors import UserError
 
     path = Path(path)
+    fix = "--force" if option.startswith("-") or option.isupper() else "force=True"  # '--out', 'OUT': the CLI's
     if path.is_dir():  # said as such, not as a missing extension
         raise UserError(f"{option} {path}: is a directory; give a file path ending {' or '.join(suffixes)}")
     if path.suffix.lower() not in suffixes:
         raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
     if not replace and os.path.lexists(path):
         if ours is None:
-            raise UserError(f"{option} {path}: the file exists; pass --force to replace it, or choose another {option}")
+            raise UserError(f"{option} {path}: the file exists; pass {fix} to replace it, or choose another {option}")
         if not _recognised(ours, path):
             raise UserError(
                 f"{option} {path}: exists and was not written by {writer}; move it, choose another {option}, "
-                "or pass --force to replace it"
+                f"or pass {fix} to replace it"
             )
     return check_out_path(path, kind="file", option=option)
 
@@ -349,19 +378,34 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     remove_stale(
         path.parent, prefix, OUTPUT_OWNER_TEXT, contents=("new", "old"), put_back=lambda d: _put_back_dir(d / "old", path)
     )
-    with owned_tempdir(path.parent, prefix, OUTPUT_OWNER_TEXT) as box:
-        new, old = box / "new", box / "old"
-        new.mkdir()
-        (new / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
-        yield new
-        os.chmod(new, 0o755)  # outputs are handed to crews and colleagues
-        try:
-            if os.path.lexists(path):
-                os.replace(path, old)
-            os.replace(new, path)
-        except BaseException:
-            _put_back_dir(old, path)
-            raise
+    box: Path | None = None
+    try:
+        with owned_tempdir(path.parent, prefix, OUTPUT_OWNER_TEXT) as box:
+            new, old = box / "new", box / "old"
+            new.mkdir()
+            (new / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
+            yield new
+            os.chmod(new, 0o755)  # outputs are handed to crews and colleagues
+            try:
+                if os.path.lexists(path):
+                    os.replace(path, old)
+                os.replace(new, path)
+            except BaseException:
+                _put_back_dir(old, path)
+                raise
+    except OSError as exc:
+        raise _dir_write_error(exc, box, path) from exc
+
+
+def _dir_write_error(exc: OSError, box: Path | None, path: Path) -> OSError:
+    """A failed write of :func:`atomic_output_dir` as a :class:`WriteError` naming the output (``path``, or the
+    file under it); an OSError about another file (an input read meanwhile) as it was."""
+    if box is None or exc.filename is None or Path(str(exc.filename)) in (path, path.parent):
+        return write_error(exc, path)  # the temporary directory could not be made, or the swap failed
+    staged = staged_write_error(exc, box / "new", path)
+    if staged is None and staged_write_error(exc, box, path) is not None:
+        return write_error(exc, path)  # the owner file, the swap's old/
+    return exc if staged is None else staged
 
 
 def _put_back_dir(old: Path, path: Path) -> bool:

@@ -5,6 +5,7 @@ ship, the predictor, the manoeuvre library, [helm] and [engine] of a rudder/prop
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -50,9 +51,23 @@ def read_library(d: dict, src: str) -> str:
     return library
 
 
+def ship_name_words(name: str) -> tuple[str, ...]:
+    """A ship's name without case and punctuation: its runs of letters and digits ('KVLCC2_Linear', 'kvlcc2 linear'
+    and 'KVLCC2.linear' are all ('kvlcc2', 'linear'); 'modelship' is not 'model-ship'). The one rule by which
+    ``diagnose`` and ``mass`` compare a recording's ``# ship:`` header with a profile (stop 62: they had two)."""
+    return tuple(w for w in re.split(r"[\W_]+", name.casefold()) if w)
+
+
+def names_ship(header: str, name: str, vessel: str = "") -> bool:
+    """Whether a ``# ship:`` header names the profile ``name`` or the ship it models (``vessel``, see
+    :func:`read_vessel`), by :func:`ship_name_words`."""
+    said = ship_name_words(header)
+    return said in (ship_name_words(name), ship_name_words(vessel or name))
+
+
 def read_vessel(d: dict, src: str) -> str:
     """``vessel``: the ship a profile is a model of, as a recording's ``# ship:`` header names it (``kvlcc2`` for
-    ``kvlcc2-linear``); diagnose accepts a header naming it or the profile (``ship_header_note``). Empty: absent."""
+    ``kvlcc2-linear``); diagnose and mass accept a header naming it or the profile (:func:`names_ship`). Empty: absent."""
     vessel = d.get("vessel", "")
     ok = isinstance(vessel, str) and any(c.isalnum() for c in vessel) and not any(ord(c) < 32 for c in vessel)
     if "vessel" in d and not ok:

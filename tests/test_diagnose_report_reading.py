@@ -289,3 +289,21 @@ def test_no_finding_line_says_where_the_screened_candidates_are():
     line = report.finding_lines(d)[0]
     assert "surge residual is 9 x the noise" in line
     assert "--json, or diagnosis.json with --out DIR" in line
+
+
+def test_a_recordings_note_that_names_it_is_not_prefixed_twice_in_the_report(damping):
+    """Stop 62: 'Recording run.csv: run.csv: header '# ship: model' ...' (the ship note names its recording, as
+    on stderr). Now the recording is named once; the note itself is unchanged (stderr, diagnosis.json)."""
+    import dataclasses
+
+    from diagnose.recording_checks import ship_header_note
+
+    prep = damping.preps[0]
+    rec = dataclasses.replace(prep.rec, meta={**prep.rec.meta, "ship": "model"})
+    note = ship_header_note(rec, load_profile("model-ship"))
+    assert note.startswith(f"{rec.source}: header '# ship: model'")
+    rec = dataclasses.replace(rec, notes=[note, "a note of its own"])
+    text = to_text(dataclasses.replace(damping, preps=[dataclasses.replace(prep, rec=rec), *damping.preps[1:]]))
+    (line,) = [ln for ln in text.splitlines() if ln.startswith(f"Recording {rec.source}:")]
+    assert line == f"Recording {rec.source}: {note.removeprefix(rec.source + ': ')}; a note of its own."
+    assert line.count(rec.source) == 1

@@ -357,3 +357,48 @@ def test_the_shortest_recording_the_check_judges(bare):
     w2, se = roles.roll_stiffness(cut(need))
     assert w2 > 0 and np.isfinite(se)  # 202 samples at 50 Hz (4 s): measured, no traceback from the lags
     assert roles.stiffness_gap(replace(rec, T=roles.max_sample_time())) == "sampling"
+
+
+# (header, accepted) against the profile 'kvlcc2-linear' that models ('vessel') the 'kvlcc2'
+SPELLINGS = [
+    ("KVLCC2.linear", True),
+    ("kvlcc2/Linear", True),
+    ("kvlcc2 linear", True),
+    ("KVLCC2", True),
+    ("kvlcc2-linear-2", False),
+    ("kvlcc2linear", False),
+    ("linear", False),
+]
+
+
+@pytest.mark.parametrize(("header", "accepted"), SPELLINGS)
+def test_mass_and_diagnose_take_a_ship_header_by_one_rule_and_honour_the_vessel(header, accepted):
+    """Stop 62 (inputs2): mass compared names by any non-alphanumeric separator, diagnose by spaces, '_' and '-'
+    ('KVLCC2.linear' was kvlcc2-linear for mass and another ship for diagnose), and mass had no ``vessel``. Now
+    both call primitives.profile_tables.names_ship."""
+    from types import SimpleNamespace
+
+    from diagnose.recording_checks import ship_header_note
+
+    ship = SimpleNamespace(name="kvlcc2-linear", vessel="kvlcc2")
+    rec = SimpleNamespace(meta={"ship": header}, source="run.csv")
+    assert (ship_header_note(rec, ship) is None) == accepted
+    roll = replace(load_profile(), name="kvlcc2-linear", vessel="kvlcc2")
+    assert (check_ship(roll, [Path("n.csv")], [{"ship": header}], explicit=True) == []) == accepted
+
+
+def test_mass_takes_the_header_of_the_ship_a_given_profile_models_without_a_warning(capsys, tmp_path):
+    """A roll profile of the basin model of Our Lass II says so (``[ship] vessel``): recordings headed
+    '# ship: Our Lass II' are that ship's, no warning; before, 'header ... but the profile is basin-model's'."""
+    from identify.rollmass.model import DEFAULT_PROFILE
+
+    text = DEFAULT_PROFILE.read_text().replace('name = "our_lass_ii"', 'name = "basin-model"\nvessel = "Our Lass II"', 1)
+    (tmp_path / "basin-model.toml").write_text(text)
+    files = _slow_example(tmp_path, True)  # mass-sim's, headed '# ship: our_lass_ii'
+    assert all("# ship: our_lass_ii" in f.read_text() for f in files)
+    assert _run(["mass", *map(str, files), "--known-load", CAL, "--profile", str(tmp_path / "basin-model.toml")]) == 0
+    said = capsys.readouterr()
+    assert "# ship:" not in said.out + said.err  # the report's warnings are on stdout
+    (tmp_path / "bad.toml").write_text(text.replace('vessel = "Our Lass II"', 'vessel = "--"'))
+    msg = _error(capsys, [*files, "--known-load", CAL, "--profile", tmp_path / "bad.toml"])
+    assert "bad.toml [ship]: field 'vessel' must name the ship" in msg

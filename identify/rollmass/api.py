@@ -6,7 +6,6 @@ load on deck 0.256 m above the waterline is ``z = -0.256``; the keel is at ``z =
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from identify.rollmass.signs import (
 from identify.rollmass.simulate import RollRecording
 from identify.rollmass.speed import SPEED_LP_HZ, SPEED_NOISE_RATIO, SPEED_VAR_MIN, followed_speed, speed_variation
 from primitives.errors import UserError
+from primitives.profile_tables import names_ship, ship_name_words
 
 ROLES = ("nominal", "calibration", "loaded")
 SPEED_TOL = 0.25  # relative: recordings' speed vs the profile's, and between the three runs (turns slow a run)
@@ -150,11 +150,6 @@ def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | N
     return loads
 
 
-def _ship_name(name: str) -> str:
-    """A ship name without case and separators: 'Our Lass II' is 'our_lass_ii'."""
-    return re.sub(r"[^0-9a-z]+", "_", name.strip().lower()).strip("_")
-
-
 def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> list[str]:
     """Refuse recordings whose '# ship:' headers differ between the runs, or name another ship than the
     default profile's (``[ship] name``): the fit would take the profile's hull, inertia and hydrodynamics for
@@ -162,12 +157,12 @@ def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]]
     word). With a ``--profile`` the user chose, a header naming another ship is a warning: it may be a
     stale default (main's mass-sim wrote 'our_lass_ii' whatever the profile; stop 52's review, 4)."""
     said = [(p, m["ship"].strip()) for p, m in zip(paths, metas) if m.get("ship", "").strip()]
-    if len({_ship_name(s) for _, s in said}) > 1:
+    if len({ship_name_words(s) for _, s in said}) > 1:
         raise UserError(
             f"the recordings' '# ship:' headers differ ({', '.join(f'{p.name} {s}' for p, s in said)}); "
             "the three runs must come from one ship"
         )
-    if not said or _ship_name(said[0][1]) == _ship_name(prof.name):
+    if not said or names_ship(said[0][1], prof.name, prof.vessel):  # diagnose's rule, the profile's vessel too
         return []
     msg = f"{said[0][0]}: header '# ship: {said[0][1]}' but the profile is {prof.name}'s"
     if explicit:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from primitives.io import read_input_text
+from primitives.profile_tables import read_vessel
 from primitives.ship import ProfileError
 
 RHO_WATER = 1000.0  # kg/m^3, the basin's fresh water
@@ -97,6 +98,7 @@ class RollProfile:
     truth: RollParams
     K_ur: float
     raw: dict
+    vessel: str = ""  # [ship] vessel: the ship it models, as '# ship:' headers name it (primitives.profile_tables)
 
 
 def load_moments(p: RollParams, kn: Known, load: Load) -> tuple[float, float]:
@@ -226,4 +228,6 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
         )
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ProfileError(f"{path}: missing or malformed field {exc}; see {DEFAULT_PROFILE.name}") from exc
-    return RollProfile(name=str(ship.get("name", path.stem)), known=kn, truth=truth, K_ur=float(roll["K_ur"]), raw=raw)
+    vessel = read_vessel(ship, f"{path} [ship]")
+    name = str(ship.get("name", path.stem))
+    return RollProfile(name=name, known=kn, truth=truth, K_ur=float(roll["K_ur"]), raw=raw, vessel=vessel)

@@ -214,7 +214,8 @@ class SavedProfile:
     source_line: str
 
 
-SAVED_HEADER = "Ship profile written by `shiptrial steering --save-profile`"  # its first line: how it is known
+SAVED_BY = "steering --save-profile"
+SAVED_HEADER = f"Ship profile written by `shiptrial {SAVED_BY}`"  # its first line: how it is known
 
 
 def is_saved_profile(path: Path) -> bool:
@@ -223,6 +224,25 @@ def is_saved_profile(path: Path) -> bool:
     from primitives.io import first_lines
 
     return any(line.startswith(f"# {SAVED_HEADER} ") for line in first_lines(path, 1))
+
+
+def check_save_path(path: str | Path, *, force: bool = False, option: str = "path") -> Path:
+    """Refuse a profile path that is not a .toml file that can be written, or an existing file that
+    :func:`is_saved_profile` does not recognise, unless ``force`` (one line naming it, as ``option``: the CLI's
+    "--save-profile", and the fix)."""
+    from primitives.io import check_out_file
+
+    return check_out_file(
+        path, (".toml",), option, "profile", replace=force, ours=is_saved_profile, writer=f"shiptrial {SAVED_BY}"
+    )
+
+
+def write_saved_profile(saved: SavedProfile, path: str | Path, *, force: bool = False, option: str = "path") -> Path:
+    """Write ``saved`` (:func:`steering_profile`) to ``path`` atomically; an existing file that no
+    ``steering --save-profile`` wrote is refused unless ``force`` (:func:`check_save_path`)."""
+    from primitives.io import atomic_write_text
+
+    return atomic_write_text(check_save_path(path, force=force, option=option), saved.text)
 
 
 def steering_profile(fit, nomoto: dict, ship: str | Path, V: float, name: str, records: list[str]) -> SavedProfile:

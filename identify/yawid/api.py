@@ -51,10 +51,22 @@ def is_simulated_recording(path: Path) -> bool:
 
 
 def simulate_file(
-    path: str | Path, seed: int = 0, noise_scale: float = 1.0, manoeuvre_seed: int = 0, ship: str = "naval-vessel"
+    path: str | Path,
+    seed: int = 0,
+    noise_scale: float = 1.0,
+    manoeuvre_seed: int = 0,
+    ship: str = "naval-vessel",
+    *,
+    force: bool = False,
+    option: str = "path",
 ) -> Path:
     """A 10-minute, 10 Hz recording of the forward-only identification run with Table 4.1 noise
-    scaled by ``noise_scale`` (example input of :func:`identify_file`)."""
+    scaled by ``noise_scale`` (example input of :func:`identify_file`). An existing file is replaced
+    only if it is one this function wrote (:func:`is_simulated_recording`) or ``force``; otherwise
+    refused in one line naming it (``option``: ``yawid-sim`` passes its ``OUT``), before any simulation."""
+    from primitives.io import check_out_file
+
+    check_out_file(path, (".csv",), option, "recording", replace=force, ours=is_simulated_recording, writer=SIM_SOURCE)
     if noise_scale < 0:
         raise UserError(f"--noise {noise_scale:g}: must be >= 0 (a multiple of Table 4.1's levels)")
     profile = load_profile(ship)

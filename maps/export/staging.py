@@ -26,6 +26,7 @@ from pathlib import Path
 
 from maps.export._common import ExportError
 from primitives import owned_dirs
+from primitives.io import staged_write_error
 from primitives.owned_dirs import OWNER, owned_tempdir
 
 
@@ -41,8 +42,11 @@ def staged_outputs(out_dir: str | Path) -> Iterator[Path]:
     try:
         with owned_tempdir(out_dir, PREFIX, OWNER_TEXT) as tmp:
             (tmp / "new").mkdir()
-            yield tmp / "new"
-            _publish(tmp, out_dir)
+            try:
+                yield tmp / "new"
+                _publish(tmp, out_dir)
+            except OSError as exc:  # named as the file in out_dir it was for, not the staging file
+                raise (staged_write_error(exc, tmp / "new", out_dir) or exc) from exc
     except BaseException:
         for d in created:  # innermost first; only while empty
             try:
