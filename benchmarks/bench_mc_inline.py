@@ -36,7 +36,7 @@ from primitives import threads  # noqa: E402
 
 # (module, function, label) of each stage --stages times; indented labels are parts of the one above
 STAGES = (
-    (montecarlo, "_simulate_data", "data simulation (noise, true system)"),
+    (montecarlo, "simulate_data", "data simulation (noise, true system)"),
     (montecarlo, "_estimate_fused", "IV estimate (fused instrument pass)"),
     (montecarlo, "_estimate", "IV estimate (unfused)"),
     (montecarlo, "output_error", "output-error fit"),

@@ -28,7 +28,7 @@ from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information, robust_design
-from expdesign.rounding import _efficiency, round_design
+from expdesign.rounding import criterion_efficiency, round_design
 from primitives.information import (
     MEAN_SUBTRACTION,
     PrimitiveInfo,
@@ -256,7 +256,7 @@ def _reference_efficiencies(
         if unknown:
             raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
         rw = np.array([float(shares.get(n, 0.0)) for n in names])
-        refs[label] = _efficiency(value(rw / rw.sum()), val, n_params, criterion)
+        refs[label] = criterion_efficiency(value(rw / rw.sum()), val, n_params, criterion)
     return refs
 
 
@@ -464,7 +464,7 @@ def run_design(
         mean_subtraction=mean_subtraction,
         weights={n: float(w) for n, w in zip(names, final)},
         logdet=info.logdet(final, mean_subtraction),
-        efficiency_vs_uniform=_efficiency(val, uni, p, eff_kind),
+        efficiency_vs_uniform=criterion_efficiency(val, uni, p, eff_kind),
         efficiency_bound=bound,
         rounded={n: int(c) for n, c in zip(names, rnd.counts)},
         unit_s={n: float(u * ts) for n, u in zip(names, units)},

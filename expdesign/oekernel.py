@@ -33,7 +33,7 @@ import numpy as np
 
 from primitives import jitloop
 from primitives.jitprogram import _IDX
-from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
+from primitives.simulate import MIN_SPEED, SPEED, signals_read, time_major_forces
 
 _N_STATE = jitloop.N_STATE
 _HELPERS: list[str] = []  # compiled inline into the pass on first use (see _compile_helpers)
@@ -68,7 +68,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
     _compile_helpers()
     in_t, progs = [], []
     for d in data:
-        names, forces = _time_major_forces(profile, d.inputs)
+        names, forces = time_major_forces(profile, d.inputs)
         prog = jitloop.program(terms, names, jitloop.CALM_STATE)
         if prog is None:
             return None

@@ -422,7 +422,7 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     return view
 
 
-def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str], np.ndarray]:
+def time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str], np.ndarray]:
     """The input signals' names and values (N, signals, 1 or B), a step's signals one block."""
     forces = profile.generalized_forces(u_in)  # each (1 or B, N)
     in_t = np.empty((u_in.shape[1], len(forces), max(np.shape(v)[0] if np.ndim(v) else 1 for v in forces.values())))
@@ -456,7 +456,7 @@ def _time_loop(
     rows of B values (batch-major rows are strided by the whole record); every operation is
     elementwise over the batch, so the numbers are those of any other layout."""
     n_steps, nd, ts = u_in.shape[1], nu0.shape[-1], profile.sample_time
-    in_names, in_t = _time_major_forces(profile, u_in)
+    in_names, in_t = time_major_forces(profile, u_in)
     nu_t = np.empty((n_steps + 1, nd, batch))
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
     cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
