@@ -190,7 +190,7 @@ def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
     ``simulate`` made by the Monte Carlo and its estimators: count and CPU) against the rest."""
     import expdesign.mc_data as data
     import expdesign.montecarlo as mc
-    import expdesign.output_error as oe
+    import expdesign.oerefine as oe
 
     p, lib, designs = setup()
     sh = mc.prepare(p, designs, mc.MCConfig(runs=repeat * max(sizes)), lib)

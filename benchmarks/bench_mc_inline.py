@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.run import _design_setup  # noqa: E402
 from benchmarks.stagetimer import time_stages  # noqa: E402
-from expdesign import montecarlo, oekernel, output_error  # noqa: E402
+from expdesign import montecarlo, oekernel, oerefine  # noqa: E402
 from expdesign.api import run_design  # noqa: E402
 from expdesign.montecarlo import evaluate_designs  # noqa: E402
 from primitives import threads  # noqa: E402
@@ -42,7 +42,7 @@ STAGES = (
     (montecarlo, "output_error", "output-error fit"),
     (oekernel, "simulate", "  candidate simulations + mean squares"),
     (oekernel, "moments_t", "  Gauss-Newton moments (sensitivities, H, g)"),
-    (output_error, "_lm_steps", "  Levenberg-Marquardt steps"),
+    (oerefine, "_lm_steps", "  Levenberg-Marquardt steps"),
     (montecarlo, "validate", "validation simulation"),
     (montecarlo, "scored", "scoring"),
 )

@@ -1,5 +1,5 @@
 """Least-squares and instrumental-variable estimators of the block-diagonal predictor (9.2)/(3.60),
-and the output-error refinement of an estimate (:func:`output_error`, :mod:`expdesign.output_error`).
+and the output-error refinement of an estimate (:func:`output_error`, :mod:`expdesign.oerefine`).
 
 The predictor is ``y(k+1) - y(k) = Phi(k)^T theta`` with one block of regressors per DOF, so each
 DOF is solved on its own (block-diagonal normal equations). The IV estimate of DOF i is
@@ -24,7 +24,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.ivsolve import iv_solve
-from expdesign.output_error import OE_TOL, OEData, OEResult, output_error, output_error_unsupported  # noqa: F401 - imported from here
+from expdesign.oerefine import OE_TOL, OEData, OEResult, output_error, output_error_unsupported  # noqa: F401 - imported from here
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, design_instrument_set, information_moments
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile

@@ -2,6 +2,9 @@
 simulated output, Levenberg-Marquardt on the Gauss-Newton moments of :mod:`expdesign.oekernel`
 (compiled) or of :func:`_gauss_newton_moments_numpy`, started from the IV estimate of
 :mod:`expdesign.estimators` (which imports the names below from here too).
+
+Named ``oerefine``, not ``output_error``: the function keeps that name, and the load estimator's
+own output-error fit is :mod:`identify.rollmass.output_error` (a different model and fit).
 """
 
 from __future__ import annotations
