@@ -1,5 +1,6 @@
 """Design-ratio report: JSON document, Markdown text and PNG figures (Figs 9.1-9.3 style). The Markdown
-text is written by :mod:`expdesign.report_markdown`; :func:`markdown` is imported from here too."""
+text is written by :mod:`expdesign.report_markdown`; its public functions (:func:`markdown`, :func:`mc_markdown`,
+:func:`sensitivity_summary`) are imported from here too."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from expdesign.api import Design
 from expdesign.estimators import OE_TOL
 from expdesign.mc_parallel import MCEvaluation
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
-from expdesign.report_markdown import markdown
+from expdesign.report_markdown import markdown, mc_markdown, sensitivity_summary  # noqa: F401 - public names callers import from here
 from primitives.io import atomic_savefig, atomic_write_bytes, atomic_write_text, dumps, figure_png
 
 
