@@ -74,7 +74,7 @@ def run_segments(
 
 
 @dataclass
-class Segment:
+class BatchSegment:
     """One segment position of a batch of runs: inputs (B, L, m), or (1, L, m) when every run plays
     the same array (:func:`_batch_inputs`: read by run only through a broadcast), nu0 (B, 3), regressors and
     target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured velocities
@@ -138,7 +138,7 @@ def _batch_inputs(runs: list[np.ndarray], shared: bool) -> np.ndarray:
     return np.stack(runs)
 
 
-def simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[Segment]:
+def simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[BatchSegment]:
     """Noisy data of every segment position for a batch of runs (noise drawn per run); without
     the instruments (``z`` None) when ``fused``."""
     prof, d, b = sh.profile, sh.dist, len(exps)
@@ -171,9 +171,9 @@ def simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fus
             )  # the data's heading: integrated when the dynamics need it
         y = np.add(meas, res.nu[:b], out=meas)  # nu + e, written over the noise (no third array)
         if fused:  # the pass builds the regressors from y
-            out.append(Segment(inp, nu0, None, None, None, y))
+            out.append(BatchSegment(inp, nu0, None, None, None, y))
             continue
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
-        out.append(Segment(inp, nu0, phi, tgt, z, y))
+        out.append(BatchSegment(inp, nu0, phi, tgt, z, y))
     return out

@@ -48,7 +48,7 @@ from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
-from expdesign.mc_data import Segment, run_noise, run_rng, run_segments, run_sequence, simulate_data  # noqa: F401 - run_noise: tests
+from expdesign.mc_data import BatchSegment, run_noise, run_rng, run_segments, run_sequence, simulate_data  # noqa: F401 - run_noise: tests
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
@@ -223,7 +223,7 @@ def prepare(
 # -- per-run estimation -----------------------------------------------------------------------------
 
 
-def _solve_runs(sh: MCShared, segs: list[Segment], runs: np.ndarray, starts: list[list[int]]) -> np.ndarray:
+def _solve_runs(sh: MCShared, segs: list[BatchSegment], runs: np.ndarray, starts: list[list[int]]) -> np.ndarray:
     """IV estimates (len(runs), p) of the runs at batch positions ``runs``
     (:func:`expdesign.ivsolve.iv_estimates`), the instrument mean removed per block (7.19) or over
     the experiment (7.20); NaN (a failed run) where a DOF's system is singular or
@@ -249,13 +249,13 @@ def _solve_runs(sh: MCShared, segs: list[Segment], runs: np.ndarray, starts: lis
     return theta
 
 
-def _resimulated_instruments(sh: MCShared, seg: Segment, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
+def _resimulated_instruments(sh: MCShared, seg: BatchSegment, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
         return instruments(sh.profile, seg.inputs[idx], theta[idx], seg.nu0[idx], sim_terms=sh.predictor, terms=sh.predictor)
 
 
-def _estimate(sh: MCShared, segs: list[Segment], starts: list[list[int]]) -> np.ndarray:
+def _estimate(sh: MCShared, segs: list[BatchSegment], starts: list[list[int]]) -> np.ndarray:
     """Per-run IV estimates; each run re-simulates its instruments until its own estimate
     changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
 
@@ -311,7 +311,7 @@ def _fused(sh: MCShared) -> bool:
     )
 
 
-def _estimate_fused(sh: MCShared, seg: Segment) -> np.ndarray:
+def _estimate_fused(sh: MCShared, seg: BatchSegment) -> np.ndarray:
     """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
