@@ -188,9 +188,9 @@ def _result_lines(
 def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
     """What a task's CPU time is made of: the simulation kernel's time loops (every call of
     ``simulate`` made by the Monte Carlo and its estimators: count and CPU) against the rest."""
-    import expdesign.estimators as est
     import expdesign.mc_data as data
     import expdesign.montecarlo as mc
+    import expdesign.oerefine as oe
 
     p, lib, designs = setup()
     sh = mc.prepare(p, designs, mc.MCConfig(runs=repeat * max(sizes)), lib)
@@ -203,7 +203,7 @@ def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
         calls.append(time.process_time() - t)
         return out
 
-    mods = [m for m in (mc, data, est) if getattr(m, "simulate", None) is kernel]
+    mods = [m for m in (mc, data, oe) if getattr(m, "simulate", None) is kernel]
     for m in mods:
         m.simulate = timed
     try:

@@ -29,20 +29,20 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.run import _design_setup  # noqa: E402
 from benchmarks.stagetimer import time_stages  # noqa: E402
-from expdesign import estimators, montecarlo, oekernel  # noqa: E402
+from expdesign import montecarlo, oekernel, oerefine  # noqa: E402
 from expdesign.api import run_design  # noqa: E402
 from expdesign.montecarlo import evaluate_designs  # noqa: E402
 from primitives import threads  # noqa: E402
 
 # (module, function, label) of each stage --stages times; indented labels are parts of the one above
 STAGES = (
-    (montecarlo, "_simulate_data", "data simulation (noise, true system)"),
+    (montecarlo, "simulate_data", "data simulation (noise, true system)"),
     (montecarlo, "_estimate_fused", "IV estimate (fused instrument pass)"),
     (montecarlo, "_estimate", "IV estimate (unfused)"),
     (montecarlo, "output_error", "output-error fit"),
     (oekernel, "simulate", "  candidate simulations + mean squares"),
     (oekernel, "moments_t", "  Gauss-Newton moments (sensitivities, H, g)"),
-    (estimators, "_lm_steps", "  Levenberg-Marquardt steps"),
+    (oerefine, "_lm_steps", "  Levenberg-Marquardt steps"),
     (montecarlo, "validate", "validation simulation"),
     (montecarlo, "scored", "scoring"),
 )

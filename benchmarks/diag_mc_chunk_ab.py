@@ -4,7 +4,7 @@
 - the optimized design's chunks of 250 runs (``run_chunk``, CPU of this thread) with the fixed design's
   inputs read once for the batch (``expdesign.mc_data._batch_inputs``, (1, N, m)) against a (B, N, m)
   stack of them (the code before), alternated chunk by chunk, the same results checked;
-- with ``--against CHECKOUT``: ``mc_data._noise`` of this tree against that checkout's (loaded from
+- with ``--against CHECKOUT``: ``mc_data.run_noise`` of this tree against that checkout's (loaded from
   its file), 250 runs of 1,000 samples of the model ship's disturbances, the same numbers checked.
 
     OMP_NUM_THREADS=1 python benchmarks/diag_mc_chunk_ab.py [--pairs 12] [--against ../main]
@@ -60,31 +60,31 @@ def chunks(pairs: int) -> None:
 
 
 def noise(pairs: int, against: Path) -> None:
-    """This tree's _noise against another checkout's, alternated."""
+    """This tree's run_noise against another checkout's, alternated."""
     spec = importlib.util.spec_from_file_location("other_mc_data", against / "expdesign" / "mc_data.py")
     other = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(other)
     from primitives.ship import load_profile
 
     d = Disturbances.from_profile(load_profile("model-ship"))
-    fns = {"this": mc_data._noise, "other": other._noise}
+    fns = {"this": mc_data.run_noise, "other": getattr(other, "run_noise", None) or other._noise}  # _noise: its name before stop 62
     t: dict[str, list[float]] = {k: [] for k in fns}
     for rep in range(pairs):
         outs = {}
         for name in list(fns)[:: 1 if rep % 2 == 0 else -1]:
-            gens = [mc_data._run_rng(0, i, 1) for i in range(250 * rep, 250 * rep + 250)]
+            gens = [mc_data.run_rng(0, i, 1) for i in range(250 * rep, 250 * rep + 250)]
             offsets = [g.normal(0.0, d.current_offset_std, 2) for g in gens]
             c = time.thread_time()
             outs[name] = fns[name](d, gens, 1000, offsets, heading=False)
             t[name].append(time.thread_time() - c)
         assert all(np.array_equal(a, b) for a, b in zip(outs["this"][:3], outs["other"][:3]))
-    _report("_noise of 250 runs x 1,000 samples (ms)", t, 1e3, ".1f")
+    _report("run_noise of 250 runs x 1,000 samples (ms)", t, 1e3, ".1f")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pairs", type=int, default=12)
-    ap.add_argument("--against", type=Path, default=None, help="another checkout: also its mc_data._noise against this tree's")
+    ap.add_argument("--against", type=Path, default=None, help="another checkout: also its mc_data.run_noise against this tree's")
     a = ap.parse_args()
     chunks(a.pairs)
     if a.against is not None:

@@ -15,7 +15,16 @@ from __future__ import annotations
 import numpy as np
 
 from diagnose.model import AugmentedModel, Prepared
-from diagnose.uncertainty import FindingCov, _finite, _inv, _prior_D, excess, positive_part, sandwich, sensitivities
+from diagnose.uncertainty import (
+    FindingCov,
+    excess,
+    finite_or_nan,
+    inverse_or_pinv,
+    positive_part,
+    prior_hessian_diag,
+    sandwich,
+    sensitivities,
+)
 
 
 def heldout_moves(
@@ -35,7 +44,7 @@ def heldout_moves(
         if not np.all(np.diag(G) > 0):
             continue
         C_d, H = sandwich(pairs, prior_D)
-        delta = -_inv(H) @ sum(np.einsum("anc,nc->a", J, r) for r, J in pairs)
+        delta = -inverse_or_pinv(H) @ sum(np.einsum("anc,nc->a", J, r) for r, J in pairs)
         if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C_d))):
             return None
         moves.append((delta, C_d + claimed))
@@ -93,13 +102,13 @@ def with_heldout(
         own = list(model.slot_of[key])
         pos = [free.index(j) for j in own]
         ix = np.ix_(pos, pos)
-        D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[own], len(own))
+        D = prior_hessian_diag(None if prior_sd is None else np.asarray(prior_sd, float)[own], len(own))
         moves = heldout_moves([sensitivities(model, [v], P, own, w) for v in val], D, cov.noise[ix])
         if moves:
             X[ix] = positive_part(_excess_of(moves) - done[ix])
             along[key] = [1.0 + _along(d, E, P[own]) for d, E in moves]
             runs.append(len(moves))
-    cov.heldout = _finite(X)
+    cov.heldout = finite_or_nan(X)
     cov.heldout_runs = min(runs, default=0)
     cov.heldout_along = along
     return cov
@@ -107,6 +116,6 @@ def with_heldout(
 
 def _along(d: np.ndarray, E: np.ndarray, est: np.ndarray) -> float:
     """The move ``d``'s component along ``est`` as a multiple of it (metric: ``E``'s inverse)."""
-    Ei = _inv(E)
+    Ei = inverse_or_pinv(E)
     den = float(est @ Ei @ est)
     return float(est @ Ei @ d) / den if den > 0 else 0.0

@@ -114,12 +114,12 @@ def ar1_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: n
     return sum(g for g, _m in per), sum(m for _g, m in per)
 
 
-def _finite(X: np.ndarray) -> np.ndarray:
+def finite_or_nan(X: np.ndarray) -> np.ndarray:
     """``X`` with every non-finite entry (inf from an overflow) as NaN: one mark of a failure."""
     return np.where(np.isfinite(X), X, np.nan)
 
 
-def _inv(A: np.ndarray) -> np.ndarray:
+def inverse_or_pinv(A: np.ndarray) -> np.ndarray:
     try:
         return np.linalg.inv(A)
     except np.linalg.LinAlgError:
@@ -137,11 +137,11 @@ def sandwich(
         per_run = run_grams(pairs, *ar1(pairs))
     G, M = sum(g for g, _m in per_run), sum(m for _g, m in per_run)
     H = G + (np.diag(prior_D) if prior_D is not None else 0.0)
-    Hi = _inv(H)
+    Hi = inverse_or_pinv(H)
     return Hi @ M @ Hi, H
 
 
-def _prior_D(sd: np.ndarray | None, n: int) -> np.ndarray:
+def prior_hessian_diag(sd: np.ndarray | None, n: int) -> np.ndarray:
     """Hessian diagonal of a Gaussian prior of std ``sd`` (0 where there is none: inf, nan, 0)."""
     if sd is None:
         return np.zeros(n)
@@ -176,19 +176,19 @@ def jackknife(
     Hs = [g for g, _m in per_run]
     gs = [np.einsum("anc,nc->a", J[:nf], r) for r, J in pairs]
     H = sum(Hs) + (np.diag(prior_D) if prior_D is not None else 0.0)
-    Hi = _inv(H)
+    Hi = inverse_or_pinv(H)
     scale = float(np.max(np.abs(np.diag(H)))) if nf else 0.0
     A = np.zeros((n, nf, nf))
     for i in range(n):
         Hm = H - Hs[i]
         act = np.diag(Hm) > 1e-9 * max(scale, 1e-300)
         if np.any(act):
-            A[i][np.ix_(act, act)] = _inv(Hm[np.ix_(act, act)])
+            A[i][np.ix_(act, act)] = inverse_or_pinv(Hm[np.ix_(act, act)])
     dev = np.einsum("iab,ib->ia", A, np.array(gs))
     dev -= dev.mean(axis=0)
     V = (n - 1) / n * dev.T @ dev
     E = (n - 1) / n * _noise_spread(A, A @ np.array(Hs) @ Hi, np.array([M for _g, M in per_run]))
-    return _finite(V), _finite(E)
+    return finite_or_nan(V), finite_or_nan(E)
 
 
 def _noise_spread(A: np.ndarray, AH: np.ndarray, M: np.ndarray) -> np.ndarray:
@@ -284,11 +284,11 @@ def propagated(
             model[ix] = small_sample(len(pairs)) * excess(VE[0][ix], VE[1][ix])
     if held_cov is not None and len(held_cov):
         G_ah = sum(np.einsum("anc,bnc->ab", J[:nf], J[nf:]) for _r, J in pairs)
-        dA = -_inv(H) @ G_ah
+        dA = -inverse_or_pinv(H) @ G_ah
         cov = cov + dA @ held_cov @ dA.T
     return FindingCov(
-        _finite(cov),
-        _finite(model),
+        finite_or_nan(cov),
+        finite_or_nan(model),
         len(pairs) if VE is not None and not failed else 0,
         held_cov is not None and len(held_cov) > 0,
         len(pairs),
@@ -296,10 +296,10 @@ def propagated(
     )
 
 
-def _prior_and_findings(model: AugmentedModel, free: list[int], prior_sd: np.ndarray | None) -> tuple[np.ndarray, list[int]]:
+def prior_and_findings(model: AugmentedModel, free: list[int], prior_sd: np.ndarray | None) -> tuple[np.ndarray, list[int]]:
     """The prior's Hessian diagonal over ``free`` and the positions among ``free`` of the findings'
     (candidate slots') parameters."""
-    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
+    D = prior_hessian_diag(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
     return D, [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
 
 
@@ -322,7 +322,7 @@ def finding_cov(
     (:func:`finding_pairs`)."""
     held = list(held or []) if held_cov is not None else []
     pairs = finding_pairs(model, preps, w, P, free, held, held_cov) if pairs is None else pairs
-    D, cols = _prior_and_findings(model, free, prior_sd)
+    D, cols = prior_and_findings(model, free, prior_sd)
     out = propagated(pairs, len(free), D, held_cov if held else None, cols)
     out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
     return out
@@ -360,10 +360,10 @@ def baseline_cov(
     x0 = model.x0_params()
     P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5, analytic=True, need_cov=False)
     pairs = sensitivities(model, preps, P, list(idx) + x0, w, analytic=True)
-    D = _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
+    D = prior_hessian_diag(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
     cov, H = sandwich(pairs, D)
     if mse:
-        Hi = _inv(H)
+        Hi = inverse_or_pinv(H)
         cov = cov + Hi @ np.diag(D) @ Hi
     return cov[: len(idx), : len(idx)]
 
@@ -386,7 +386,7 @@ def reference_misfit(
     not move (a wind where none was recorded) get none; None when no parameter is moved or the
     refit is not finite."""
     cols = list(base_free) + list(own)
-    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[cols], len(cols))
+    D = prior_hessian_diag(None if prior_sd is None else np.asarray(prior_sd, float)[cols], len(cols))
     # the baseline's columns by forward sensitivities (P0 switches no candidate on), the finding's differenced
     return misfit_term(sensitivities(model, calm, P0, cols, w, analytic=True), len(base_free), D)
 
@@ -406,7 +406,7 @@ def misfit_term(pairs: list[tuple[np.ndarray, np.ndarray]], nb: int, prior_D: np
     if not own_act:
         return None
     C, H = sandwich([(r, J[act]) for r, J in pairs], None if prior_D is None else np.asarray(prior_D)[act])
-    d = -_inv(H) @ g[act]
+    d = -inverse_or_pinv(H) @ g[act]
     delta, C_d = d[pos], C[np.ix_(pos, pos)]
     if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C_d))):
         return None
@@ -440,7 +440,7 @@ def with_reference(
             pos = [free.index(j) for j in own]
             R[np.ix_(pos, pos)] = term
             measured.add(key)
-    cov.reference = _finite(R)
+    cov.reference = finite_or_nan(R)
     cov.reference_keys = frozenset(measured)
     return cov
 

@@ -31,12 +31,12 @@ from diagnose.interval95 import BLOCKS_PER_RUN, small_sample
 from diagnose.model import AugmentedModel, Prepared
 from diagnose.uncertainty import (
     FindingCov,
-    _finite,
-    _inv,
-    _prior_and_findings,
     ar1,
     excess,
+    finite_or_nan,
+    inverse_or_pinv,
     positive_part,
+    prior_and_findings,
     run_grams,
     sensitivities,
 )
@@ -74,13 +74,13 @@ def block_sandwich(
     Mb = np.array([m for _g, m in per])
     gs = np.array([np.einsum("anc,nc->a", J, r) for r, J in blocks])
     H = Hb.sum(axis=0) + (np.diag(prior_D) if prior_D is not None else 0.0)
-    Hi = _inv(H)
+    Hi = inverse_or_pinv(H)
     V = Hi @ (gs.T @ gs) @ Hi
     HbHi = Hb @ Hi  # H_b H^-1
     X = (HbHi @ Mb).sum(axis=0)  # sum_b H_b H^-1 M_b
     S = Mb.sum(axis=0)
     meat = S - X - X.T + (HbHi @ S @ HbHi.transpose(0, 2, 1)).sum(axis=0)
-    return _finite(V), _finite(Hi @ meat @ Hi)
+    return finite_or_nan(V), finite_or_nan(Hi @ meat @ Hi)
 
 
 def within_term(
@@ -101,7 +101,7 @@ def within_term(
         return None
     B = np.zeros_like(run_part)
     B[ix] = small_sample(len(blocks)) * excess(VE[0][ix], VE[1][ix])
-    return _finite(positive_part(B - run_part))
+    return finite_or_nan(positive_part(B - run_part))
 
 
 def with_within(
@@ -126,6 +126,6 @@ def with_within(
         pairs = sensitivities(model, preps, P, list(free), w)
     else:
         pairs = [(r, J[: len(free)]) for r, J in pairs]
-    D, cols = _prior_and_findings(model, free, prior_sd)
+    D, cols = prior_and_findings(model, free, prior_sd)
     cov.within = within_term(pairs, cols, cov.model, D)
     return cov

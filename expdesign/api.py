@@ -28,7 +28,7 @@ from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information, robust_design
-from expdesign.rounding import _efficiency, round_design
+from expdesign.rounding import Rounded, criterion_efficiency, round_design
 from primitives.information import (
     MEAN_SUBTRACTION,
     PrimitiveInfo,
@@ -256,7 +256,7 @@ def _reference_efficiencies(
         if unknown:
             raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
         rw = np.array([float(shares.get(n, 0.0)) for n in names])
-        refs[label] = _efficiency(value(rw / rw.sum()), val, n_params, criterion)
+        refs[label] = criterion_efficiency(value(rw / rw.sum()), val, n_params, criterion)
     return refs
 
 
@@ -385,6 +385,31 @@ def _check_prior_options(
         )
 
 
+def _trial_seconds(trial_length_s: float | None, prims: list[Primitive]) -> float:
+    """The trial length the rounding and cost budgets use: ``trial_length_s``, by default every primitive once."""
+    total_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in prims))
+    if total_s <= 0:
+        raise DesignError(f"trial length must be > 0 seconds, got {trial_length_s}")
+    return total_s
+
+
+def _rounded(
+    step: _Step, info: InfoSet, prims: list[Primitive], total_samples: int, criterion: str, mean_subtraction: str, notes: list[str]
+) -> tuple[np.ndarray, Rounded]:
+    """Each primitive's unit (samples between natural split points) and ``step``'s shares rounded to
+    whole units of a ``total_samples`` trial (:func:`expdesign.rounding.round_design`). For a robust
+    criterion the local-D design is rounded too and both are scored on the draws (rows of ``step.section``):
+    rounding can take the robust gain away."""
+    value, p, names = step.value, info.n_params, [pr.name for pr in prims]
+    units = np.array([unit_samples(pr) for pr in prims])
+    rnd = round_design(step.weights, units, total_samples, lambda s: value(s / total_samples), p, criterion=step.eff_kind)
+    if step.section is not None:
+        lw = np.array([step.section["local_weights"][n] for n in names])
+        lrnd = round_design(lw, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction), p)
+        _rounded_rows(step.section, step.draws.score(lrnd.fractions), step.draws.score(rnd.fractions), criterion, notes)
+    return units, rnd
+
+
 def run_design(
     profile: ShipProfile | str,
     primitives: list[Primitive] | None = None,
@@ -432,9 +457,7 @@ def run_design(
     names = [p.name for p in prims]
     if infos is None:
         infos = _moments(profile, prims, disturbed_realisations, seed)
-    total_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in prims))
-    if total_s <= 0:
-        raise DesignError(f"trial length must be > 0 seconds, got {trial_length_s}")
+    total_s = _trial_seconds(trial_length_s, prims)
     prior_w = prior_samples * profile.sample_time / total_s if prior is not None else 0.0
     info = InfoSet.from_infos(infos, prior, prior_w)
     check_identifiable(profile, info, mean_subtraction)
@@ -450,13 +473,7 @@ def run_design(
     val = value(final)
     uni = value(np.full(len(names), 1.0 / len(names)))
     ts = profile.sample_time
-    units = np.array([unit_samples(pr) for pr in prims])
-    total_samples = int(round(total_s / ts))
-    rnd = round_design(final, units, total_samples, lambda s: value(s / total_samples), p, criterion=eff_kind)
-    if section is not None:  # rounded beside rounded: rounding can take the robust gain away
-        lw = np.array([section["local_weights"][n] for n in names])
-        lrnd = round_design(lw, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction), p)
-        _rounded_rows(section, step.draws.score(lrnd.fractions), step.draws.score(rnd.fractions), criterion, notes)
+    units, rnd = _rounded(step, info, prims, int(round(total_s / ts)), criterion, mean_subtraction, notes)
     refs = _reference_efficiencies(references, names, value, val, p, eff_kind)
     return Design(
         profile=profile.name,
@@ -464,7 +481,7 @@ def run_design(
         mean_subtraction=mean_subtraction,
         weights={n: float(w) for n, w in zip(names, final)},
         logdet=info.logdet(final, mean_subtraction),
-        efficiency_vs_uniform=_efficiency(val, uni, p, eff_kind),
+        efficiency_vs_uniform=criterion_efficiency(val, uni, p, eff_kind),
         efficiency_bound=bound,
         rounded={n: int(c) for n, c in zip(names, rnd.counts)},
         unit_s={n: float(u * ts) for n, u in zip(names, units)},

@@ -55,7 +55,7 @@ def start_worker(others: list[Connection]) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the fork is discarded here
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)  # blocked from the fork (_fork): a SIGTERM sent since kills now
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)  # blocked from the fork (fork_worker): a SIGTERM sent since kills now
     for c in others:  # EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
@@ -74,7 +74,7 @@ def serve(conn: Connection, fn: Callable | None = None, items: Sequence[Any] = (
     the parent defined after the fork, a class whose rebuild raises) leaves the worker serving: each
     of its tasks is answered (:data:`NOT_LOADED`, index, the part and the error) and the next map's
     payload replaces it."""
-    from expdesign.parallel import _call
+    from expdesign.parallel import call_with_shared
 
     not_loaded = None
     with contextlib.suppress(EOFError, OSError):
@@ -86,7 +86,7 @@ def serve(conn: Connection, fn: Callable | None = None, items: Sequence[Any] = (
                 conn.send((NOT_LOADED, msg, not_loaded))
                 continue
             try:
-                out = (msg, True, _call(fn, items[msg], shared))
+                out = (msg, True, call_with_shared(fn, items[msg], shared))
             except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
                 out = (msg, False, f"{type(e).__name__}: {e}")
             try:
@@ -152,7 +152,7 @@ def fork_map(
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
                 pending = (mine, theirs, p)  # a Ctrl-C can land between the fork and its record (_stop_forked)
                 try:
-                    _fork(p)
+                    fork_worker(p)
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
                     pending = None
                     mine.close()
@@ -170,10 +170,10 @@ def fork_map(
             on_result(i, False, "not run: every worker of the pool was lost")
         _stop(procs, held)
     except BaseException:
-        try:  # a second Ctrl-C inside _stop_forked must not skip _kill (the workers ignore SIGINT)
+        try:  # a second Ctrl-C inside _stop_forked must not skip kill_workers (the workers ignore SIGINT)
             _stop_forked(pending, procs)
         finally:
-            _kill(procs)
+            kill_workers(procs)
         raise
 
 
@@ -185,7 +185,7 @@ def _stop_forked(pending: tuple[Connection, Connection, BaseProcess] | None, pro
         return
     mine, theirs, p = pending
     if p.pid is not None:
-        procs[mine] = p  # _kill terminates, reaps and closes it: recorded first, before anything can raise
+        procs[mine] = p  # kill_workers terminates, reaps and closes it: recorded first, before anything can raise
     else:
         mine.close()  # the worker's only peer: it reads EOF
     theirs.close()
@@ -194,7 +194,7 @@ def _stop_forked(pending: tuple[Connection, Connection, BaseProcess] | None, pro
 _HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has its own handlers
 
 
-def _fork(p: multiprocessing.process.BaseProcess) -> None:
+def fork_worker(p: multiprocessing.process.BaseProcess) -> None:
     """Start worker ``p`` with SIGTERM and SIGINT blocked from the fork until the worker has put in
     its own actions (:func:`start_worker`; the mask is inherited by the fork, and only this thread's is
     changed). A SIGTERM that came before would otherwise run the handler the parent had installed
@@ -213,7 +213,7 @@ def _fork(p: multiprocessing.process.BaseProcess) -> None:
 KILL_GRACE_S = 2.0  # a worker SIGTERM has not stopped by then is killed
 
 
-def _kill(procs: dict) -> None:
+def kill_workers(procs: dict) -> None:
     """Stop every worker now and reap it: SIGTERM, then SIGKILL for one still alive after a grace
     period (no zombie, no orphan left computing)."""
     for p in procs.values():

@@ -22,17 +22,17 @@ if TYPE_CHECKING:
     from expdesign.montecarlo import MCShared
 
 
-def _run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
+def run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(run, stream)))
 
 
-def _sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
+def run_sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
     """Run ``run``'s (primitive, samples) blocks in the order they are played; its generator of
     stream 0 made only where it is read (a fixed design in a fixed order reads none)."""
     cfg, spec = sh.config, sh.designs[design]
     if isinstance(spec, str):
         seg = cfg.n_samples // cfg.n_segments
-        return [(sh.names[i], seg) for i in _run_rng(cfg.seed, run, 0).integers(0, len(sh.names), cfg.n_segments)]
+        return [(sh.names[i], seg) for i in run_rng(cfg.seed, run, 0).integers(0, len(sh.names), cfg.n_segments)]
     blocks = sh.blocks[design]
     if cfg.protocol == "piecewise":
         # each block restarts from the nominal state: the order does not matter, long blocks are
@@ -44,10 +44,10 @@ def _sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
         return out
     if cfg.order != "random":
         return list(blocks)
-    return [blocks[i] for i in _run_rng(cfg.seed, run, 0).permutation(len(blocks))]
+    return [blocks[i] for i in run_rng(cfg.seed, run, 0).permutation(len(blocks))]
 
 
-def _experiment(
+def run_segments(
     sh: MCShared, seq: list[tuple[str, int]], played: dict | None = None
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
     """Segments [(inputs (L, m), nu0 (3,))] of one run and the block start indices in the
@@ -74,7 +74,7 @@ def _experiment(
 
 
 @dataclass
-class _Seg:
+class BatchSegment:
     """One segment position of a batch of runs: inputs (B, L, m), or (1, L, m) when every run plays
     the same array (:func:`_batch_inputs`: read by run only through a broadcast), nu0 (B, 3), regressors and
     target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured velocities
@@ -89,7 +89,7 @@ class _Seg:
     y: np.ndarray
 
 
-def _noise(
+def run_noise(
     d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray], heading: bool = True
 ) -> tuple[np.ndarray, ...]:
     """Each run's current (B, n, 2), wind (B, n, 2), measurement noise (B, n+1, 3) and heading noise
@@ -129,7 +129,7 @@ def _noise(
 
 def _batch_inputs(runs: list[np.ndarray], shared: bool) -> np.ndarray:
     """The inputs (B, L, m) of a batch's runs at one segment position, or (1, L, m) when ``shared``
-    and every run plays the same array (a fixed design in a fixed order: :func:`_experiment`
+    and every run plays the same array (a fixed design in a fixed order: :func:`run_segments`
     builds its experiment once). The compiled passes read input column 0 for every run of a
     one-column batch (the same numbers, so the same bits) and step no (B, L, m) copy, nor its
     time-major forces (stop 53); the numpy path's regressors take the full stack."""
@@ -138,7 +138,7 @@ def _batch_inputs(runs: list[np.ndarray], shared: bool) -> np.ndarray:
     return np.stack(runs)
 
 
-def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
+def simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[BatchSegment]:
     """Noisy data of every segment position for a batch of runs (noise drawn per run); without
     the instruments (``z`` None) when ``fused``."""
     prof, d, b = sh.profile, sh.dist, len(exps)
@@ -155,7 +155,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
         # the heading noise is read by the unfused path's regressors only; it is drawn all the same
         # before another experiment of the run, whose draws follow it
         last = j == len(exps[0]) - 1
-        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets, heading=not (fused and last))
+        cur, wind, meas, head = run_noise(d, gens, inp.shape[1], offsets, heading=not (fused and last))
         if not fused:  # the calm instrument model after the true system
             cur, wind = (np.concatenate([a, np.zeros_like(cur)]) for a in (cur, wind))
         env = Disturbances(current_ne=cur, wind_ne=wind, current_turning=d.current_turning)
@@ -171,9 +171,9 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
             )  # the data's heading: integrated when the dynamics need it
         y = np.add(meas, res.nu[:b], out=meas)  # nu + e, written over the noise (no third array)
         if fused:  # the pass builds the regressors from y
-            out.append(_Seg(inp, nu0, None, None, None, y))
+            out.append(BatchSegment(inp, nu0, None, None, None, y))
             continue
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
-        out.append(_Seg(inp, nu0, phi, tgt, z, y))
+        out.append(BatchSegment(inp, nu0, phi, tgt, z, y))
     return out

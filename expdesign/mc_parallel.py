@@ -109,11 +109,11 @@ def start_warm_pool(
 
     from expdesign.parallel import ENV_SCHEDULER
     from expdesign.warmpool import WarmPool
-    from primitives.threads import _cpus
+    from primitives.threads import usable_cpus
 
     if (scheduler or os.environ.get(ENV_SCHEDULER) or "local") != "local":
         return None
-    n = workers or _cpus()
+    n = workers or usable_cpus()
     if n <= 1 or multiprocessing.get_start_method() != "fork":
         return None
     sh = prepare(profile, {"random": "random"}, MCConfig(runs=MAX_CHUNK, **protocol), primitives)

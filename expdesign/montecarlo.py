@@ -48,7 +48,7 @@ from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
-from expdesign.mc_data import _experiment, _noise, _run_rng, _Seg, _sequence, _simulate_data  # noqa: F401 - _noise: tests
+from expdesign.mc_data import BatchSegment, run_noise, run_rng, run_segments, run_sequence, simulate_data  # noqa: F401 - run_noise: tests
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
@@ -223,7 +223,7 @@ def prepare(
 # -- per-run estimation -----------------------------------------------------------------------------
 
 
-def _solve_runs(sh: MCShared, segs: list[_Seg], runs: np.ndarray, starts: list[list[int]]) -> np.ndarray:
+def _solve_runs(sh: MCShared, segs: list[BatchSegment], runs: np.ndarray, starts: list[list[int]]) -> np.ndarray:
     """IV estimates (len(runs), p) of the runs at batch positions ``runs``
     (:func:`expdesign.ivsolve.iv_estimates`), the instrument mean removed per block (7.19) or over
     the experiment (7.20); NaN (a failed run) where a DOF's system is singular or
@@ -249,13 +249,13 @@ def _solve_runs(sh: MCShared, segs: list[_Seg], runs: np.ndarray, starts: list[l
     return theta
 
 
-def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
+def _resimulated_instruments(sh: MCShared, seg: BatchSegment, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
         return instruments(sh.profile, seg.inputs[idx], theta[idx], seg.nu0[idx], sim_terms=sh.predictor, terms=sh.predictor)
 
 
-def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.ndarray:
+def _estimate(sh: MCShared, segs: list[BatchSegment], starts: list[list[int]]) -> np.ndarray:
     """Per-run IV estimates; each run re-simulates its instruments until its own estimate
     changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
 
@@ -311,7 +311,7 @@ def _fused(sh: MCShared) -> bool:
     )
 
 
-def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
+def _estimate_fused(sh: MCShared, seg: BatchSegment) -> np.ndarray:
     """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
@@ -336,13 +336,13 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
-    seqs = [tuple(_sequence(sh, design, i)) for i in ids]
+    seqs = [tuple(run_sequence(sh, design, i)) for i in ids]
     for seq in seqs:
         if seq not in layout:
-            layout[seq] = _experiment(sh, list(seq), played)
+            layout[seq] = run_segments(sh, list(seq), played)
     layouts = [layout[seq] for seq in seqs]
     fused = _fused(sh)
-    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
+    segs = simulate_data(sh, [lay[0] for lay in layouts], [run_rng(cfg.seed, i, 1) for i in ids], fused)
     theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])
     notes = list(sh.notes.get(design, []))
     if sh.theta0 is None:

@@ -2,7 +2,7 @@
 the candidate simulations, their mean squared errors and the Gauss-Newton moments, on outputs kept
 time-major (N+1, 3, runs) from one pass to the next. The moments are one pass over the samples (the
 runs are the inner loop of every stage), replacing the numpy path's four array stages (state
-Jacobian, regressors, sensitivity recursion, sums) of :func:`expdesign.estimators._gauss_newton_moments_numpy`.
+Jacobian, regressors, sensitivity recursion, sums) of :func:`expdesign.oerefine._gauss_newton_moments_numpy`.
 
 Per run and step k of the noise-free simulated trajectory nu(k): the regressors Phi(k) (Ljungberg
 (2022) (9.2)), the state Jacobian d inc / d nu by forward differences with the step 1e-7 (1 + |nu|) from
@@ -33,7 +33,7 @@ import numpy as np
 
 from primitives import jitloop
 from primitives.jitprogram import _IDX
-from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
+from primitives.simulate import MIN_SPEED, SPEED, signals_read, time_major_forces
 
 _N_STATE = jitloop.N_STATE
 _HELPERS: list[str] = []  # compiled inline into the pass on first use (see _compile_helpers)
@@ -68,7 +68,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
     _compile_helpers()
     in_t, progs = [], []
     for d in data:
-        names, forces = _time_major_forces(profile, d.inputs)
+        names, forces = time_major_forces(profile, d.inputs)
         prog = jitloop.program(terms, names, jitloop.CALM_STATE)
         if prog is None:
             return None
@@ -87,7 +87,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
 
 def simulate(cr: CalmRuns, theta: np.ndarray, idx: np.ndarray, limit: float) -> tuple[list[np.ndarray], np.ndarray]:
     """Noise-free outputs nu (N+1, 3, len(idx)) per experiment of the runs ``idx`` with their
-    ``theta`` rows, and their :func:`expdesign.estimators._mean_squares` (b, 3) (inf for a run
+    ``theta`` rows, and their :func:`expdesign.oerefine._mean_squares` (b, 3) (inf for a run
     with an output not below ``limit`` in magnitude, NaN too). The simulation is :func:`_calm_loop`,
     the operations of the compiled loop of :func:`primitives.simulate._compiled_loop` for
     ``simulate(..., positions=False)`` in calm water (the same bits), the runs' inputs read
@@ -163,7 +163,7 @@ def _calm_loop(
 
 def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.ndarray, w: np.ndarray, fd_step: float):
     """(hess (b, p, p), grad (b, p)) of the runs ``idx`` from their time-major outputs ``sims``
-    (N+1, 3, b), as :func:`expdesign.estimators._gauss_newton_moments_numpy` computes them but for
+    (N+1, 3, b), as :func:`expdesign.oerefine._gauss_newton_moments_numpy` computes them but for
     the order of the sums (module doc)."""
     p, b = theta.shape[1], len(idx)
     hess, grad = np.zeros((b, p, p)), np.zeros((b, p))

@@ -100,7 +100,7 @@ class _Progress:
             self.bar.stop()
 
 
-def _call(fn: Callable, item: Any, shared: Any) -> Any:
+def call_with_shared(fn: Callable, item: Any, shared: Any) -> Any:
     return fn(item) if shared is None else fn(item, shared)
 
 
@@ -127,7 +127,7 @@ class Engine:
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
         try:
             for i, it in enumerate(items):
-                res[i] = _call(fn, it, shared)
+                res[i] = call_with_shared(fn, it, shared)
                 done[i] = True
                 bar.advance(i)
         except KeyboardInterrupt:
@@ -164,7 +164,7 @@ def one_thread_per_worker(inherited: bool = False) -> None:
     library's own threads would only compete with the other workers for the same cores (CPU
     spent spinning and switching, not computing). The libraries already loaded are limited with
     threadpoolctl (unless ``inherited``: a worker forked while the parent held them at one thread,
-    :func:`_one_thread_while_forking`), those loaded later by the environment variables; once per
+    :func:`one_thread_while_forking`), those loaded later by the environment variables; once per
     process."""
     global _ONE_THREAD
     if _ONE_THREAD:
@@ -181,7 +181,7 @@ def one_thread_per_worker(inherited: bool = False) -> None:
     _ONE_THREAD = True
 
 
-def _one_thread_while_forking() -> contextlib.AbstractContextManager:
+def one_thread_while_forking() -> contextlib.AbstractContextManager:
     """The parent's BLAS / OpenMP libraries held at one thread while it forks the pool's workers,
     then restored: each worker inherits the limit instead of finding and limiting the libraries
     itself. Measured with 16 workers forked from the benchmark's parent (2 loaded cores, no-op
@@ -207,7 +207,7 @@ def _init_worker(shared: Any) -> None:
 
 
 def _pool_call(fn: Callable, item: Any, use_shared: bool) -> Any:
-    return _call(fn, item, _SHARED if use_shared else None)
+    return call_with_shared(fn, item, _SHARED if use_shared else None)
 
 
 class LocalEngine(Engine):
@@ -291,7 +291,7 @@ class LocalEngine(Engine):
         unit: str,
     ) -> MapResult:
         """:func:`expdesign.forkpool.fork_map`: each worker fed as soon as it is forked, inheriting one
-        BLAS thread (:func:`_one_thread_while_forking`, held while the workers are forked). The progress
+        BLAS thread (:func:`one_thread_while_forking`, held while the workers are forked). The progress
         bar (whose refresh thread could hold the terminal's lock at a fork, and the child would then
         hang at its first write to stderr) starts after the last fork."""
         from expdesign.forkpool import PoolTimes, fork_map
@@ -301,7 +301,7 @@ class LocalEngine(Engine):
         @contextlib.contextmanager
         def forking() -> Iterator[None]:
             t0 = time.perf_counter()
-            with _one_thread_while_forking():
+            with one_thread_while_forking():
                 yield
             bars.append(_Progress(weights or [1] * len(items), desc, progress, unit))
             bars[0].t0 = t0
@@ -457,7 +457,7 @@ def _dask_call(item: Any, fn: Callable, shared: Any = None) -> Any:
     if os.getpid() not in _CALLER_PIDS:  # a worker process (an in-process cluster leaves the caller's libraries alone)
         one_thread_per_worker()  # a Dask worker's threads each run a task: no BLAS threads on top
         keep_freed_memory()
-    return _call(fn, item, shared)
+    return call_with_shared(fn, item, shared)
 
 
 _CALLER_PIDS: set[int] = set()  # processes that made a DaskEngine

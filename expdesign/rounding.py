@@ -40,7 +40,7 @@ def efficient_rounding(weights: np.ndarray, n: int, tol: float = 1e-9) -> np.nda
     return c
 
 
-def _efficiency(value: float, reference: float, n_params: int, criterion: str) -> float:
+def criterion_efficiency(value: float, reference: float, n_params: int, criterion: str) -> float:
     """Efficiency of a design value against a reference value of the same criterion:
     D (log det): exp((v - ref) / p); A (-tr M^-1): ref / v; E (lambda_min): v / ref."""
     if criterion not in ("D", "A", "E"):
@@ -105,7 +105,7 @@ def round_design(
     c, best, moves = _exchange(c, d, total_samples, objective, equal, max_rounds)
     samples = c * d
     cont = objective(w * total_samples)
-    eff = _efficiency(best, cont, n_params, criterion)
+    eff = criterion_efficiency(best, cont, n_params, criterion)
     frac = samples / samples.sum() if samples.sum() else samples.astype(float)
     return Rounded(c, d, samples, frac, float(best), float(cont), eff, moves)
 

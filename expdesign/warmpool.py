@@ -36,7 +36,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-from expdesign.forkpool import NOT_LOADED, PAYLOAD_PARTS, _fork, _kill, serve, start_worker
+from expdesign.forkpool import NOT_LOADED, PAYLOAD_PARTS, fork_worker, kill_workers, serve, start_worker
 from primitives.heap import release_freed_memory
 
 READY = "ready"  # a worker's first message: its warm-up is done (with the error text if it failed)
@@ -94,23 +94,23 @@ class WarmPool:
         self.ready: dict[Connection, str | None] = {}  # a worker's warm-up error (None: fine), once it said
         self._warned: set[str] = set()  # warm-up errors already issued as WarmUpFailed
         self._not_loaded: str | None = None  # the current map's payload part a worker could not unpickle, and why
-        from expdesign.parallel import _one_thread_while_forking
+        from expdesign.parallel import one_thread_while_forking
 
         release_freed_memory()
         try:
-            with _one_thread_while_forking():  # each worker inherits one BLAS thread (expdesign.parallel)
+            with one_thread_while_forking():  # each worker inherits one BLAS thread (expdesign.parallel)
                 self._fork_all(ctx, workers, warm)
         except BaseException:
-            _kill(self.procs)
+            kill_workers(self.procs)
             raise
-        self._finalizer = weakref.finalize(self, _kill, self.procs)
+        self._finalizer = weakref.finalize(self, kill_workers, self.procs)
 
     def _fork_all(self, ctx: Any, workers: int, warm: Callable[[], None] | None) -> None:
         for _ in range(max(1, workers)):
             mine, theirs = ctx.Pipe(duplex=True)
             p = ctx.Process(target=_worker, args=(theirs, [*self.procs, mine], warm), daemon=True)
             try:
-                _fork(p)
+                fork_worker(p)
             except OSError:  # no fork: the pool is the workers already made
                 mine.close()
                 theirs.close()
@@ -237,9 +237,9 @@ class WarmPool:
         """Stop the workers: each is told to exit after its warm-up and joined, for at most
         ``timeout`` seconds in all; a worker still alive then (a warm-up stuck or slow, e.g. on a
         cold cache) is killed (SIGTERM, then SIGKILL after a grace, as
-        :func:`expdesign.forkpool._kill`). ``now``: kill them all at once."""
+        :func:`expdesign.forkpool.kill_workers`). ``now``: kill them all at once."""
         if now:
-            _kill(self.procs)
+            kill_workers(self.procs)
         else:
             for conn in self.procs:
                 try:
@@ -249,7 +249,7 @@ class WarmPool:
             end = time.monotonic() + max(0.0, timeout)
             for p in self.procs.values():
                 p.join(max(0.0, end - time.monotonic()))
-            _kill({c: p for c, p in self.procs.items() if p.exitcode is None})
+            kill_workers({c: p for c, p in self.procs.items() if p.exitcode is None})
             for conn in self.procs:
                 conn.close()
         self.procs.clear()

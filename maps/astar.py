@@ -209,6 +209,66 @@ def _path(parent: dict[int, tuple[int, int]], found_key: int, G: int) -> tuple[l
     return moves, spatial
 
 
+def _counter_tables(pb: Problem) -> tuple[list[int], int, int, list[int], list[list[bool]]]:
+    """The counters of (8.3)-(8.5) packed into one index (:meth:`Problem.counter_index`): the strides,
+    the number of indices ``G``, the index with every counter at its target, and per index the
+    informative manoeuvres still to sail and which counters may still advance."""
+    Q = len(pb.targets)
+    radix, stride, G = pb.counter_index()
+    full = sum(d * st for d, st in zip(pb.targets, stride))
+    ci = np.arange(G)
+    g_of = np.stack([(ci // stride[q]) % radix[q] for q in range(Q)], axis=1) if Q else np.zeros((G, 0), int)
+    remaining = (np.asarray(pb.targets) - g_of).sum(axis=1).tolist() if Q else [0] * G
+    can = [[bool(g_of[c, q] < pb.targets[q]) for q in range(Q)] for c in range(G)]
+    return stride, G, full, remaining, can
+
+
+def _unreachable(heuristic: str, h0: float, D: int, t0: float) -> SearchResult:
+    """The result when the start's heuristic is infinite: the relaxed problem has no path, so none exists."""
+    return SearchResult(
+        False,
+        [],
+        [],
+        float("inf"),
+        0,
+        1,
+        time.perf_counter() - t0,
+        heuristic,
+        False,
+        h0,
+        f"no sequence of moves that uses all {D} informative manoeuvres reaches the goal, even with the "
+        "counters pooled and in any order (the relaxed problem): some manoeuvre ends where the goal "
+        "cannot be reached, or the water between them is too tight",
+    )
+
+
+def _not_found(
+    expansions: int, max_expansions: int, held: int, max_states: int | None, dt: float, heuristic: str, h0: float, D: int
+) -> SearchResult:
+    """The result of a search that stopped without reaching the goal, with why: a limit (``held``
+    states against ``max_states``) or every reachable state explored."""
+    if expansions > max_expansions:
+        why = "expansion limit reached"
+    elif max_states is not None and held > max_states:
+        why = f"memory limit reached ({held:,} states held; raise --max-memory or plan fewer manoeuvres)"
+    else:
+        why = "every reachable state was explored"
+    return SearchResult(
+        False,
+        [],
+        [],
+        float("inf"),
+        expansions,
+        held,
+        dt,
+        heuristic,
+        False,
+        h0,
+        f"no sequence of moves meets all counters and reaches the goal ({why})",
+        {"D": D},
+    )
+
+
 def search(
     pb: Problem,
     heuristic: str = "admissible",
@@ -221,15 +281,8 @@ def search(
     """A* with a binary heap (heapq), packed integer keys and a closed set; stops when it holds
     more than ``max_states`` states (the memory budget)."""
     t0 = time.perf_counter()
-    Q = len(pb.targets)
-    radix, stride, G = pb.counter_index()
-    full = sum(d * st for d, st in zip(pb.targets, stride))
+    stride, G, full, remaining, can = _counter_tables(pb)
     D = int(sum(pb.targets))
-    # per counter index: remaining uses and which counters may still advance
-    ci = np.arange(G)
-    g_of = np.stack([(ci // stride[q]) % radix[q] for q in range(Q)], axis=1) if Q else np.zeros((G, 0), int)
-    remaining = (np.asarray(pb.targets) - g_of).sum(axis=1).tolist() if Q else [0] * G
-    can = [[bool(g_of[c, q] < pb.targets[q]) for q in range(Q)] for c in range(G)]
     goal_set = set(pb.goal_spatial)
 
     htab = _heuristic_rows(pb, heuristic, weights, basic_cost, table, D)
@@ -238,21 +291,7 @@ def search(
     k0 = s0 * G
     h0 = htab[s0][remaining[0]]
     if not np.isfinite(h0):
-        return SearchResult(
-            False,
-            [],
-            [],
-            float("inf"),
-            0,
-            1,
-            time.perf_counter() - t0,
-            heuristic,
-            False,
-            h0,
-            f"no sequence of moves that uses all {D} informative manoeuvres reaches the goal, even with the "
-            "counters pooled and in any order (the relaxed problem): some manoeuvre ends where the goal "
-            "cannot be reached, or the water between them is too tight",
-        )
+        return _unreachable(heuristic, h0, D, t0)
     gcost = {k0: 0.0}
     parent: dict[int, tuple[int, int]] = {}
     closed: set[int] = set()
@@ -299,26 +338,7 @@ def search(
             heapq.heappush(heap, (g2 + h2, remaining[c2], tie, k2))
     dt = time.perf_counter() - t0
     if found_key < 0:
-        if expansions > max_expansions:
-            why = "expansion limit reached"
-        elif max_states is not None and len(gcost) > max_states:
-            why = f"memory limit reached ({len(gcost):,} states held; raise --max-memory or plan fewer manoeuvres)"
-        else:
-            why = "every reachable state was explored"
-        return SearchResult(
-            False,
-            [],
-            [],
-            float("inf"),
-            expansions,
-            len(gcost),
-            dt,
-            heuristic,
-            False,
-            h0,
-            f"no sequence of moves meets all counters and reaches the goal ({why})",
-            {"D": D},
-        )
+        return _not_found(expansions, max_expansions, len(gcost), max_states, dt, heuristic, h0, D)
     moves, spatial = _path(parent, found_key, G)
     return SearchResult(
         True, moves, spatial, gcost[found_key], expansions, len(gcost), dt, heuristic, heuristic == "admissible", h0

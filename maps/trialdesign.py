@@ -21,7 +21,7 @@ from expdesign.dopt import DEDICATED, ROBUST, InfoSet, canonical_criterion
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
-from expdesign.rounding import _efficiency, round_design
+from expdesign.rounding import criterion_efficiency, round_design
 from maps.searoom import SeaRoom, held_parameters, held_records, with_short_forms
 from maps.sizing import Needs, km, water_text
 from primitives.information import PrimitiveInfo, library_information, reduced_profile, restrict
@@ -118,8 +118,8 @@ def _whole_manoeuvres(
             need,
         )
     real = counts * units / (counts @ units)
-    d_eff = _efficiency(info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D")
-    own = _efficiency(
+    d_eff = criterion_efficiency(info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D")
+    own = criterion_efficiency(
         crit.value(real, mean_subtraction, criterion), crit.value(weights, mean_subtraction, criterion), info.n_params, kind
     )
     return counts, d_eff, own
@@ -278,7 +278,7 @@ def _exclusion_loss(
         )
         baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
     kind = "D" if criterion in ROBUST else criterion
-    return 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, kind)
+    return 1.0 - criterion_efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, kind)
 
 
 def _record(

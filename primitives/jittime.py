@@ -121,7 +121,7 @@ def _state_signals(
     sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
 ):
     """The signals of step k per member into ``sig`` (primitives.simulate.relative_signals and
-    _add_state_forces): inputs, u, v, r, psi (p, phi), pod forces, the velocities relative to the
+    primitives.velocitystep.add_state_forces): inputs, u, v, r, psi (p, phi), pod forces, the velocities relative to the
     water and the air, U, the wind signals; the current in body axes into ``cub``, ``cvb``."""
     nd, batch, n_in, in_b = nu_t.shape[1], nu_t.shape[2], in_t.shape[1], in_t.shape[2]
     has_cur, has_wind = cur_t.shape[0] > 0, wind_t.shape[0] > 0

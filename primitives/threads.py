@@ -43,10 +43,10 @@ def count() -> int:
         n = int(os.environ.get(SETTING, "").split(",")[0])
     except ValueError:  # unset, empty or not a number ("²" passes str.isdigit but not int)
         n = 0
-    return max(1, min(n if n > 0 else _cpus(), MAX_THREADS))
+    return max(1, min(n if n > 0 else usable_cpus(), MAX_THREADS))
 
 
-def _cpus() -> int:
+def usable_cpus() -> int:
     try:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):  # not Linux

@@ -457,7 +457,7 @@ def test_the_jackknife_noise_expectation_is_the_double_sum_over_runs():
     A_i (delta_ij - H_i H^-1), centred over i; ``jackknife``'s docstring) summed here term by term;
     the module computes it in closed form (n products instead of n^2: the double sum over 104
     blocks took three quarters of a 13-run diagnosis). Runs with columns they do not move, a prior on some."""
-    from diagnose.uncertainty import _inv, jackknife, run_grams
+    from diagnose.uncertainty import inverse_or_pinv, jackknife, run_grams
 
     rng = np.random.default_rng(3)
     n, nf = 9, 7
@@ -476,7 +476,7 @@ def test_the_jackknife_noise_expectation_is_the_double_sum_over_runs():
     for i in range(n):
         Hm = H - Hs[i]
         act = np.diag(Hm) > 1e-9 * np.max(np.abs(np.diag(H)))
-        A[i][np.ix_(act, act)] = _inv(Hm[np.ix_(act, act)])
+        A[i][np.ix_(act, act)] = inverse_or_pinv(Hm[np.ix_(act, act)])
     B = np.array([[A[i] * (i == j) - A[i] @ Hs[i] @ Hi for j in range(n)] for i in range(n)])
     B -= B.mean(axis=0, keepdims=True)
     want = (n - 1) / n * sum(B[i, j] @ per_run[j][1] @ B[i, j].T for i in range(n) for j in range(n))

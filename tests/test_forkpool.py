@@ -312,7 +312,7 @@ def test_ctrl_c_between_two_forks_leaves_no_worker_behind(monkeypatch):
     Ctrl-C lands at the next bytecode of the main thread): the map raises at once and both workers are gone,
     while the interrupted frame still lives (main before stop 56 left the second running until it was freed)."""
     pids = _forked_pids(monkeypatch)
-    fork, calls = forkpool._fork, []
+    fork, calls = forkpool.fork_worker, []
 
     def interrupted(p):
         fork(p)
@@ -320,7 +320,7 @@ def test_ctrl_c_between_two_forks_leaves_no_worker_behind(monkeypatch):
         if len(calls) == 2:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(forkpool, "_fork", interrupted)
+    monkeypatch.setattr(forkpool, "fork_worker", interrupted)
     t = time.perf_counter()
     with pytest.raises(KeyboardInterrupt) as caught:
         _collect(_pid_then_sleep, [1, 2, 3, 4], 4)
@@ -392,7 +392,7 @@ if sys.argv[1] == "fork":
     p = ctx.Process(target=forkpool._worker, args=(theirs, [mine], task, [0], None))
 else:
     p = ctx.Process(target=warmpool._worker, args=(theirs, [mine], None))
-forkpool._fork(p)
+forkpool.fork_worker(p)
 theirs.close()
 if sys.argv[1] == "warm":
     mine.recv()  # its warm-up note

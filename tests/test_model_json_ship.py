@@ -111,15 +111,15 @@ def test_the_monte_carlo_truth_turns_the_current(tmp_path):
     """The Monte Carlo's true system sails in the profile's current as the profile says: a
     model.json's current turns with the ship (the same numbers as the kernel with
     current_turning), and switching it off gives the thesis's flat current."""
-    from expdesign.montecarlo import MCConfig, _experiment, _simulate_data, prepare
+    from expdesign.montecarlo import MCConfig, prepare, run_segments, simulate_data
 
     prof = load_profile(_model_json(tmp_path))
     cur = tuple(CURRENT)
     for turning in (True, False):
         dist = Disturbances(current_ne=cur, current_turning=turning)
         sh = prepare(prof, {"one": {"tau9": 1.0}}, MCConfig(runs=1, n_samples=300, protocol="piecewise"), disturbances=dist)
-        segs, _ = _experiment(sh, [("tau9", 300)])
-        (seg,) = _simulate_data(sh, [segs], [np.random.default_rng(1)])
+        segs, _ = run_segments(sh, [("tau9", 300)])
+        (seg,) = simulate_data(sh, [segs], [np.random.default_rng(1)])
         want = simulate(
             prof,
             seg.inputs[0],

@@ -12,7 +12,7 @@ import pytest
 
 from expdesign.errors import DesignError
 from expdesign.mc_result import MCResult, merge_results
-from expdesign.montecarlo import MCConfig, _experiment, _sequence, block_lengths, prepare
+from expdesign.montecarlo import MCConfig, block_lengths, prepare, run_segments, run_sequence
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
 
@@ -26,8 +26,8 @@ def ship():
 
 
 def _layout(sh, design, run):
-    seq = _sequence(sh, design, run)
-    return seq, _experiment(sh, seq)
+    seq = run_sequence(sh, design, run)
+    return seq, run_segments(sh, seq)
 
 
 @pytest.mark.parametrize("order", ["library", "random"])

@@ -159,16 +159,16 @@ def test_interrupted_evaluation_is_partial_and_keeps_finished_runs(ship, referen
 def test_a_runs_noise_is_its_own_generators_draws_in_the_documented_order(ship):
     """Each run's current, wind, measurement and heading noise are its generator's draws in that
     order (one call per quantity, as the study was defined), whatever the batch draws with it."""
-    from expdesign.montecarlo import _noise, _run_rng
+    from expdesign.montecarlo import run_noise, run_rng
     from primitives.simulate import Disturbances
 
     d = Disturbances(current_ne=(0.1, -0.2), current_sample_std=0.15, wind_ne=(3.0, 1.0), wind_sample_std=0.5,
                      measurement_std=(0.02, 0.01, 0.005), heading_std=0.01)  # fmt: skip
     n, runs = 40, [0, 7, 3]
     offsets = [np.array([0.05, -0.01]) * (i + 1) for i in runs]
-    got = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets)
+    got = run_noise(d, [run_rng(2, i, 1) for i in runs], n, offsets)
     for j, i in enumerate(runs):
-        g = _run_rng(2, i, 1)
+        g = run_rng(2, i, 1)
         cur = np.asarray(d.current_ne) + offsets[j] + g.normal(0.0, 1.0, (n, 2)) * d.current_sample_std
         wind = np.asarray(d.wind_ne) + g.normal(0.0, 1.0, (n, 2)) * d.wind_sample_std
         meas = g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std)
@@ -184,20 +184,20 @@ def test_a_runs_noise_is_its_own_generators_draws_in_the_documented_order(ship):
 def test_noise_without_heading_or_wind_spread_gives_the_same_numbers_and_no_arrays_for_them():
     """The fused pass reads no heading noise: it is not drawn (the last draws), the rest unchanged;
     a wind without random part is its mean for every run and sample, not a (B, n, 2) array."""
-    from expdesign.montecarlo import _noise, _run_rng
+    from expdesign.montecarlo import run_noise, run_rng
     from primitives.simulate import Disturbances
 
     d = Disturbances(current_ne=(0.1, -0.2), current_sample_std=0.15, wind_ne=(3.0, 0.0),
                      measurement_std=(0.02, 0.01, 0.005), heading_std=0.01)  # fmt: skip
     n, runs = 40, [0, 7, 3]
     offsets = [np.array([0.05, -0.01]) * (i + 1) for i in runs]
-    full = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets)
-    part = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets, heading=False)
+    full = run_noise(d, [run_rng(2, i, 1) for i in runs], n, offsets)
+    part = run_noise(d, [run_rng(2, i, 1) for i in runs], n, offsets, heading=False)
     assert part[3] is None
     for a, b in zip(full[:3], part[:3]):
         assert np.array_equal(a, b)
     for j, i in enumerate(runs):  # the wind's normals are still drawn: the measurement noise follows them
-        g = _run_rng(2, i, 1)
+        g = run_rng(2, i, 1)
         g.normal(0.0, 1.0, (2, n, 2))
         assert np.array_equal(part[2][j], g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std))
     assert np.array_equal(part[1], np.broadcast_to([3.0, 0.0], (3, n, 2))) and not any(part[1].strides[:2])

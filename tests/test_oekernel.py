@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from expdesign import estimators as es
+from expdesign import oerefine as es
 from expdesign.ivsolve import iv_solve
 from expdesign.montecarlo import evaluate_designs
 from primitives import jitloop

@@ -26,13 +26,13 @@ def test_the_count_follows_omp_num_threads(monkeypatch, value, expected):
 
 @pytest.mark.parametrize("value", [None, "0", "-2", "abc", "", "²"])  # "²": str.isdigit, not int
 def test_without_a_usable_setting_the_count_is_the_cpus_this_process_may_use(monkeypatch, value):
-    monkeypatch.setattr(threads, "_cpus", lambda: 3)
+    monkeypatch.setattr(threads, "usable_cpus", lambda: 3)
     if value is None:
         monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
     else:
         monkeypatch.setenv("OMP_NUM_THREADS", value)
     assert threads.count() == 3
-    monkeypatch.setattr(threads, "_cpus", lambda: 40)
+    monkeypatch.setattr(threads, "usable_cpus", lambda: 40)
     assert threads.count() == threads.MAX_THREADS
 
 
