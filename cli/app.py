@@ -115,6 +115,8 @@ def _run_app(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # not a file the user named: _main stops quietly
+        raise
     except OSError as exc:  # any other file the OS refused: its name and the OS's reason, not a traceback
         print(f"error: {exc.filename or type(exc).__name__}: {exc.strerror or exc}", file=sys.stderr)
         return 1
@@ -129,10 +131,29 @@ def _run_app(argv: list[str] | None) -> int:
     return rc if isinstance(rc, int) else 0
 
 
+def _pipe_closed() -> int:
+    """stdout's reader went away (``--json | head``): stop quietly, as Unix tools do, with the status a shell
+    reports for a tool its pipe closed (128 + SIGPIPE); stdout onto /dev/null so the interpreter's last flush
+    cannot fail again."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 141
+
+
+def _main(argv: list[str] | None) -> None:
+    """Run the command and exit with its status once stdout's buffer is written; a closed pipe, met while the
+    command prints, when ``--json``'s document is written or at that last flush, ends it quietly."""
+    try:
+        rc = _run(argv)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        rc = _pipe_closed()
+    sys.exit(rc)
+
+
 def main() -> None:
-    sys.exit(_run())
+    _main(None)
 
 
 def plan_main() -> None:
     """``plan-trial`` is ``shiptrial plan``."""
-    sys.exit(_run(["plan", *sys.argv[1:]]))
+    _main(["plan", *sys.argv[1:]])

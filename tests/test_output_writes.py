@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import errno
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -163,3 +165,16 @@ def test_a_full_disk_at_the_sweeps_plot_says_the_finished_table_was_kept(tmp_pat
         "error: s.png: cannot be written (No space left on device); nothing was written to it",
     ]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.csv", "s.toml"]
+
+
+def test_a_json_reader_that_closes_its_pipe_ends_the_command_quietly():
+    """``shiptrial primitives --json | head -c 50``: the reader goes away before the document is written; the command
+    stops with 141 (128 + SIGPIPE, as a shell reports it) and no traceback (it printed one from the JSON writer)."""
+    r, w = os.pipe()
+    os.close(r)  # the reader is gone before the command writes
+    try:
+        cmd = [sys.executable, "-c", "from cli.app import main; main()", "primitives", "--ship", "model-ship", "--json"]
+        p = subprocess.run(cmd, stdout=w, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(w)
+    assert p.returncode == 141 and p.stderr == "", p.stderr[-500:]
