@@ -67,7 +67,10 @@ def noise(pairs: int, against: Path) -> None:
     from primitives.ship import load_profile
 
     d = Disturbances.from_profile(load_profile("model-ship"))
-    fns = {"this": mc_data.run_noise, "other": getattr(other, "run_noise", None) or other._noise}  # _noise: its name before stop 62
+    fns = {
+        "this": mc_data.run_noise,
+        "other": getattr(other, "run_noise", None) or other._noise,
+    }  # _noise: its name before stop 62
     t: dict[str, list[float]] = {k: [] for k in fns}
     for rep in range(pairs):
         outs = {}

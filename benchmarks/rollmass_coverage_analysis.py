@@ -126,9 +126,7 @@ def analyse(a: argparse.Namespace) -> None:
     if all("rho" in z for *_, z in fits):
         rows += _rows(fits, f"{own} leverage", lambda z: leveraged(z, _cov(z, int(z["lags"]))))
     if all("nu" in z for *_, z in fits):  # Bell & McCaffrey's t_{0.975, nu} for 1.96 (sandwich.load_dof)
-        rows += _rows(
-            fits, f"{own} lev t_nu", lambda z: leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975)
-        )
+        rows += _rows(fits, f"{own} lev t_nu", lambda z: leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975))
     print()
     _table(rows, by_case=False)
     if all("nu" in z for *_, z in fits):

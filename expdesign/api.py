@@ -394,7 +394,13 @@ def _trial_seconds(trial_length_s: float | None, prims: list[Primitive]) -> floa
 
 
 def _rounded(
-    step: _Step, info: InfoSet, prims: list[Primitive], total_samples: int, criterion: str, mean_subtraction: str, notes: list[str]
+    step: _Step,
+    info: InfoSet,
+    prims: list[Primitive],
+    total_samples: int,
+    criterion: str,
+    mean_subtraction: str,
+    notes: list[str],
 ) -> tuple[np.ndarray, Rounded]:
     """Each primitive's unit (samples between natural split points) and ``step``'s shares rounded to
     whole units of a ``total_samples`` trial (:func:`expdesign.rounding.round_design`). For a robust

@@ -250,7 +250,6 @@ def plot_mc(mc: dict[str, MCResult], path_param: Path, path_dof: Path, path_norm
     plt.close(fig)
 
 
-
 def write_report(
     out: Path, doc: dict[str, Any], design: Design, mc: dict[str, MCResult] | None, thesis: dict[str, float] | None = None
 ) -> dict[str, Path]:

@@ -27,7 +27,6 @@ def _certificate_line(doc: dict[str, Any], cert: dict[str, Any]) -> str:
     )
 
 
-
 def sensitivity_summary(rows: list[dict[str, Any]]) -> str:
     """Plain-language reading of the sensitivity rows: how far each choice moves the shares."""
     from expdesign.sensitivity import tv_distance
@@ -142,6 +141,7 @@ def markdown(doc: dict[str, Any], figures: dict[str, str]) -> str:
             lines.append(f"| {r['variant']} | {r['tv_to_thesis']:.2f} | {r['best_single'] or '-'} | {sh} |")
         lines += ["", sensitivity_summary(doc["sensitivity"])]
     return "\n".join(lines) + "\n"
+
 
 def _md_cell(text: str) -> str:
     """A table cell: a '|' in a name (X|u|u) would end the cell."""

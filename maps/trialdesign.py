@@ -118,7 +118,9 @@ def _whole_manoeuvres(
             need,
         )
     real = counts * units / (counts @ units)
-    d_eff = criterion_efficiency(info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D")
+    d_eff = criterion_efficiency(
+        info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D"
+    )
     own = criterion_efficiency(
         crit.value(real, mean_subtraction, criterion), crit.value(weights, mean_subtraction, criterion), info.n_params, kind
     )

@@ -10,7 +10,15 @@ import pytest
 MOVED = {
     "expdesign.report": ("markdown", "mc_markdown", "sensitivity_summary"),
     "expdesign.estimators": ("OEData", "OEResult", "OE_TOL", "output_error", "output_error_unsupported"),
-    "primitives.simulate": ("VelocityStep", "relative_signals", "model_signals", "signals_read", "body_from_ne", "SPEED", "WIND_EXCESS"),
+    "primitives.simulate": (
+        "VelocityStep",
+        "relative_signals",
+        "model_signals",
+        "signals_read",
+        "body_from_ne",
+        "SPEED",
+        "WIND_EXCESS",
+    ),
 }
 
 
