@@ -79,7 +79,8 @@ FIT_KAPPA = True
 # and moved run 0 (bench seeds) to +8.4 / -6.5 / +4.8 % mass error against -0.2 / -0.8 / -0.7 % free (stop 43)
 N_FREE = 4  # free-response columns per dataset and channel (4 states)
 NOISE_AR = 6  # order of each channel's whitening filter
-# Newey-West lag window of the sandwich covariance, in seconds (samples = this / the sample time):
+# Newey-West lag window, in seconds (samples = this / the sample time), of the sandwich the fit's stationarity check
+# weighs the load's step with (oe_fit: load_decrement; the reported interval's is INTERVAL_LAG_S since stop 62):
 # the length of a joystick turn, over which unmodelled dynamics leave structure in the residuals
 # (turn entries, Linder et al. 2015 Fig. 5)
 SANDWICH_LAG_S = 5.0

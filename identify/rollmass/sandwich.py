@@ -137,8 +137,9 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) ->
 def load_decrement(basis: LoadBasis, f: np.ndarray, lengths: list[int], lags: int) -> float:
     """Squared length ``d^T C^-1 d`` of the load part ``d = dx[-2:]`` (``m``, ``zbar_m``, the last two
     parameters) of the Gauss-Newton step ``dx = -(J^T J)^-1 J^T f``, in the load's sandwich covariance
-    ``C`` (:func:`sandwich_cov`): how far a further step would move the reported load, in the standard
-    errors reported with it. With white, unit-variance residuals and every parameter counted it is the
+    ``C`` (:func:`sandwich_cov`) over ``lags``: how far a further step would move the reported load, in its standard
+    errors over that window (the fit passes the stationarity check's, ``output_error.SANDWICH_LAG_S`` = 5 s; the
+    reported interval's, ``INTERVAL_LAG_S`` = 20 s since stop 62, is wider). With white, unit-variance residuals and every parameter counted it is the
     Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
     is not the interval's when the residual is structure rather than noise, and on a noise-free basin
     run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
