@@ -152,8 +152,9 @@ def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | N
 
 def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> list[str]:
     """Refuse recordings whose '# ship:' headers differ between the runs, or name another ship than the
-    default profile's (``[ship] name``): the fit would take the profile's hull, inertia and hydrodynamics for
-    another ship's (stop 52's sweep: '# ship: seed003_basin' with the default profile was read without a
+    default profile's (``[ship] name`` or ``vessel``), both compared as diagnose compares them, case and punctuation
+    aside (:func:`primitives.profile_tables.names_ship`): the fit would take the profile's hull, inertia and
+    hydrodynamics for another ship's (stop 52's sweep: '# ship: seed003_basin' with the default profile was read without a
     word). With a ``--profile`` the user chose, a header naming another ship is a warning: it may be a
     stale default (main's mass-sim wrote 'our_lass_ii' whatever the profile; stop 52's review, 4)."""
     said = [(p, m["ship"].strip()) for p, m in zip(paths, metas) if m.get("ship", "").strip()]
