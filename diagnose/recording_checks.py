@@ -396,8 +396,10 @@ def with_conventions(recs: list, environment: str | None = None, rudder_sign: st
 
 def rudder_in_profile_sign(recs: list, profile) -> list:
     """Every recording's rudder in the profile's convention (:func:`apply_rudder_sign`), or refused
-    when it turns the ship the other way (:func:`check_rudder_sign`). Idempotent: a converted
-    recording says the profile's convention."""
+    when it or its yaw moment turns the ship the other way (:func:`check_rudder_sign`,
+    :func:`check_yaw_moment_sign`), with its ``# ship:`` header note (:func:`ship_header_note`) attached once:
+    :func:`conform` and ``diagnose.api.run`` both come here. Idempotent: a converted recording says the
+    profile's convention."""
     out = []
     for rec in recs:
         rec = apply_rudder_sign(rec, profile)
