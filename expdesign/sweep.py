@@ -169,7 +169,7 @@ def _check_speeds(speeds: list, profiles: dict[str, Any], path: Path) -> None:
 
 def held_input(profile: Any, speed: float) -> tuple[str, float, float] | None:
     """The first input ``profile`` would need beyond its limit to hold ``speed`` m/s straight
-    ahead (the steady surge force of primitives.maneuvers.steady_forces, allocated to its inputs)
+    ahead (the steady surge force of primitives.steady_forces.steady_forces, allocated to its inputs)
     as (name, needed, limit), or None when the speed is within reach or the ship's actuators have
     no steady-force allocation (rudder and propeller: the cell says so itself)."""
     from primitives.steady_forces import STEADY_FORCE_ACTUATORS, steady_forces
