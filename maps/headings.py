@@ -34,7 +34,7 @@ def heading_rounding_warning(psi: float, lattice_psi: float) -> str | None:
     ``lattice_psi`` (rad), or None when they differ by less than HEADING_NOTICE_DEG: the resume
     example's --from 116.6 against the lattice's atan(2) + 90 deg = 116.565 deg warned 'rounded 116.6
     to 116.6 deg', a rounding below any compass's resolution."""
-    d = float(np.degrees(abs((psi - lattice_psi + np.pi) % (2 * np.pi) - np.pi)))
+    d = float(np.degrees(abs(wrap(psi - lattice_psi))))
     if d < HEADING_NOTICE_DEG:
         return None
     return (
