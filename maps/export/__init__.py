@@ -51,8 +51,10 @@ def export_plan(
     ``figures``: a :class:`maps.export.figures.PlanFigures` of the plan to share the card's
     figures with other exports (:func:`export_all` does). The card's files appear together or
     not at all (:func:`maps.export.staging.staged_outputs`). A file of the same name that no export
-    wrote (it carries no export's mark, :func:`maps.export.ownership.is_export_file`) is refused unless
-    ``replace`` (:func:`maps.export.ownership.check_replaceable`); no record is written beside the file.
+    wrote (it carries no export's mark, :func:`maps.export.ownership.is_export_file`), or that changed since
+    a record listed it, is refused unless ``replace`` (:func:`maps.export.ownership.check_replaceable`). The
+    file is added to a record only where one is kept (a directory export's, a plan-trial directory); none is
+    started beside it.
     """
     from maps.export.ownership import check_replaceable, write_record
     from maps.export.staging import staged_outputs
