@@ -1,6 +1,6 @@
 """The augmented model: baseline ``nu(k+1) = nu(k) + Phi^T theta`` plus candidate slots.
 
-Open-loop simulation with the primitives' time step (``primitives.simulate.VelocityStep``, the
+Open-loop simulation with the primitives' time step (``primitives.velocitystep.VelocityStep``, the
 one every simulator uses), driven by the recorded inputs and the measured heading (which sets
 the body-frame components of an earth-fixed current or wind), vectorised over a batch of
 parameter vectors so that finite-difference sensitivities of all parameters cost one pass
@@ -228,7 +228,7 @@ class AugmentedModel:
         """Open-loop outputs, one (B_i, N_i+1, 3) per recording, for parameter vectors P (B, n_params)
         on every recording, or one batch P[i] (B_i, n_params) per recording (a Jacobian's columns).
 
-        One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
+        One simulation with the primitives' time step (``primitives.velocitystep.VelocityStep``) over
         every batch member, recordings side by side in the compiled loop (the recordings padded to
         the longest and stepped at once in the numpy loop; :mod:`diagnose.openloop`). The
         candidate slots enter around it:

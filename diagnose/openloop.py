@@ -4,7 +4,7 @@ AugmentedModel.simulate_many`): the compiled loop over recordings of similar len
 and the environment both read, the current and the air velocity turned into body axes by the
 measured heading (not a simulated one).
 
-Both loops step the primitives' time step (:class:`primitives.simulate.VelocityStep`) with the
+Both loops step the primitives' time step (:class:`primitives.velocitystep.VelocityStep`) with the
 same inputs in the same order: the same bits (``tests/test_diagnose_simulate.py``).
 """
 

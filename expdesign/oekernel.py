@@ -237,7 +237,7 @@ def _score_row(nu_t, y, runs, k, first, limit, sq, bad, batch):
 
 @_helper
 def _signals(sig, x, in_t, runs, k, speed):
-    """The calm-water signals of the states x (3, B) at step k (primitives.simulate.relative_signals,
+    """The calm-water signals of the states x (3, B) at step k (primitives.velocitystep.relative_signals,
     in the signal layout of primitives.jitloop), the inputs of batch member b those of run runs[b]."""
     batch, one = x.shape[1], in_t.shape[2] == 1
     for i in range(in_t.shape[1]):

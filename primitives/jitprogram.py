@@ -1,7 +1,7 @@
 """The term program and the other arrays the compiled time loops read (:mod:`primitives.jitloop`,
 :mod:`primitives.jittime`, expdesign's passes): the regressor terms of :mod:`primitives.terms` as
 factor records over a per-step signal vector (the state signals of
-:func:`primitives.simulate.relative_signals` first, the exogenous signals after), a podded
+:func:`primitives.velocitystep.relative_signals` first, the exogenous signals after), a podded
 profile's pods (Gierusz 2015 / seed 000 (2.9)-(2.12)) and a rigid-body profile's M^-1 (seed 000
 (2.13)). Pure Python and numpy: made once per term list and signal names, read by the loops.
 """

@@ -15,7 +15,7 @@ one simulated member each for.
 
 The terms are the kernel's term program (:func:`primitives.jitloop.program`): a term is
 c * prod_f |s_f + station_f r|^power_f over the signals of
-:func:`primitives.simulate.relative_signals`, whose derivatives with respect to (u, v, r) are
+:func:`primitives.velocitystep.relative_signals`, whose derivatives with respect to (u, v, r) are
 taken here by the chain rule: u_r, v_r and u_q, v_q move one to one with u, v; U = hypot(u_r, v_r)
 (held at its floor below 1e-9, where its derivative is taken as zero); the wind-excess signals
 wx = |V_q| u_q - |V| u, wy = |V_q| v_q - |V| v, wn = u_q v_q - u v; every exogenous signal is fixed.

@@ -4,7 +4,7 @@ every step and batch member in machine code.
 
 The model is the kernel's: nu(k+1) = nu(k) + Phi(k)^T theta + w(k) (seed 001 (3.60), (9.1)) with the
 regressor terms read as a term program (:mod:`primitives.jitprogram`, evaluated by
-:mod:`primitives.jitfactors`), the signals of :func:`primitives.simulate.relative_signals`, pod
+:mod:`primitives.jitfactors`), the signals of :func:`primitives.velocitystep.relative_signals`, pod
 forces (Gierusz 2015 / seed 000 (2.9)-(2.12), :mod:`primitives.pods`), the rigid-body increments
 Ts M^-1 (F - C_RB nu) (seed 000 (2.13), :mod:`primitives.rigidbody`), an earth-fixed current turned
 with the heading (Fossen 2021, section 10.3) and the Euler kinematics
@@ -32,7 +32,7 @@ def open_loop(
     wind_body: tuple | None,
     forced: np.ndarray | None,
 ) -> np.ndarray | None:
-    """nu (B, N+1, 3) of ``step`` (a :class:`primitives.simulate.VelocityStep` without rigid body)
+    """nu (B, N+1, 3) of ``step`` (a :class:`primitives.velocitystep.VelocityStep` without rigid body)
     stepped N times from nu0 (B, 3), the loop of a caller that supplies every signal itself: the
     exogenous signals ``exo[name]`` (N, B) (the heading among them when a term reads it), the
     current and air velocity already in body axes (each a pair of (N, B) arrays, or None) and
@@ -120,7 +120,7 @@ def _pod_forces(sig, b, u, v, r, p, pod_pos, pod_sig, pc):
 def _state_signals(
     sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
 ):
-    """The signals of step k per member into ``sig`` (primitives.simulate.relative_signals and
+    """The signals of step k per member into ``sig`` (primitives.velocitystep.relative_signals and
     primitives.velocitystep.add_state_forces): inputs, u, v, r, psi (p, phi), pod forces, the velocities relative to the
     water and the air, U, the wind signals; the current in body axes into ``cub``, ``cvb``."""
     nd, batch, n_in, in_b = nu_t.shape[1], nu_t.shape[2], in_t.shape[1], in_t.shape[2]
@@ -140,7 +140,7 @@ def _state_signals(
         if has_cur:
             if env_body:
                 cu, cv = cur_t[k, 0, b], cur_t[k, 1, b]
-            else:  # primitives.simulate.body_from_ne
+            else:  # primitives.velocitystep.body_from_ne
                 c, s = math.cos(psi), math.sin(psi)
                 cn, ce = cur_t[k, 0, b], cur_t[k, 1, b]
                 cu, cv = c * cn + s * ce, -s * cn + c * ce
@@ -149,7 +149,7 @@ def _state_signals(
         sig[3, b], sig[4, b] = ur, vr
         if speed:
             h = math.hypot(ur, vr)
-            sig[7, b] = 1e-9 if h < 1e-9 else h  # primitives.simulate.MIN_SPEED; NaN stays NaN as in np.maximum
+            sig[7, b] = 1e-9 if h < 1e-9 else h  # primitives.velocitystep.MIN_SPEED; NaN stays NaN as in np.maximum
         if has_wind:
             if env_body:
                 wu, wv = wind_t[k, 0, b], wind_t[k, 1, b]

@@ -151,7 +151,7 @@ def feasible(profile: ShipProfile, f: tuple[float, float, float] | np.ndarray) -
 def model_step(profile: ShipProfile, theta: np.ndarray, nu: np.ndarray, psi: float, input_sig: dict) -> tuple[np.ndarray, float]:
     """One calm-water step of (3.60) for one ship: (nu(k+1), psi(k+1)).
 
-    The velocity step is the shared kernel's (:class:`primitives.simulate.VelocityStep`, the
+    The velocity step is the shared kernel's (:class:`primitives.velocitystep.VelocityStep`, the
     step of :func:`primitives.simulate.simulate`) on a batch of one, so a closed-loop generator
     sees the same signals (speed through the water ``U`` included) and the same arithmetic as
     every simulation of its inputs (stepped on floats, :meth:`VelocityStep.next_one`: the same bits);

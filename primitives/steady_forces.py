@@ -1,7 +1,7 @@
 """The generalized forces that hold a ship's velocities steady in calm water (the feed-forward of
 the manoeuvre generators, the autopilot and the Monte Carlo's hold), and which ships have them.
 
-Evaluated with the simulation kernel's regressor signals (:func:`primitives.simulate.model_signals`).
+Evaluated with the simulation kernel's regressor signals (:func:`primitives.velocitystep.model_signals`).
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ _FACTOR = re.compile(
     r"(?:\^(-?[0-9]+))?$"
 )
 # Signals a negative power may divide by: positive by construction (the speed through the water,
-# floored, primitives.simulate.relative_signals). 1/v_r would blow up at every zero crossing.
+# floored, primitives.velocitystep.relative_signals). 1/v_r would blow up at every zero crossing.
 POSITIVE_SIGNALS = frozenset({"U"})
 # Lateral velocities that may be taken at a station x metres forward of the origin: v@x = v + x r
 # (the flow at the propeller or rudder of a turning ship, MMG beta_P, beta_R; Yasukawa & Yoshimura
