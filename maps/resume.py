@@ -34,6 +34,7 @@ from maps.sizing import Needs, water_text
 from maps.trialdesign import ship_library
 from primitives.errors import UserError
 from primitives.library import Primitive
+from primitives.profile_tables import names_ship
 from primitives.ship import ShipProfile
 from primitives.sized import named_short_forms
 
@@ -174,7 +175,7 @@ def match_recordings(
     numbered = sorted(recordings, key=lambda r: ("step" not in r.meta, float(r.t[0])))  # named steps first
     for rec in numbered:
         ship = _header(rec, "ship")
-        if ship != plan.ship:
+        if not names_ship(ship, plan.ship, profile.vessel):  # diagnose's and mass's rule: case and punctuation aside
             raise ResumeError(
                 f"{rec.source}: header '# ship: {ship}' but the plan is for {plan.ship}: give that ship's recordings"
             )

@@ -54,7 +54,8 @@ def read_library(d: dict, src: str) -> str:
 def ship_name_words(name: str) -> tuple[str, ...]:
     """A ship's name without case and punctuation: its runs of letters and digits ('KVLCC2_Linear', 'kvlcc2 linear'
     and 'KVLCC2.linear' are all ('kvlcc2', 'linear'); 'modelship' is not 'model-ship'). The one rule by which
-    ``diagnose`` and ``mass`` compare a recording's ``# ship:`` header with a profile (stop 62: they had two)."""
+    ``diagnose``, ``mass`` and ``plan-trial --resume`` compare a recording's ``# ship:`` header with a profile or a
+    plan's ship (stop 62: diagnose and mass had two, resume an exact match)."""
     return tuple(w for w in re.split(r"[\W_]+", name.casefold()) if w)
 
 

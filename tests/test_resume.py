@@ -246,6 +246,20 @@ def _matched(plan, files):
     return [(r.step + 1, r.source) for r in match_recordings(plan, [load_recording(f)[0] for f in files], prof)]
 
 
+def test_a_ship_header_is_matched_by_the_one_ship_name_rule(sailed, tmp_path):
+    """'# ship: Full_Scale' names the plan's full-scale ship as diagnose and mass read it (case and punctuation
+    aside: primitives.profile_tables.names_ship); resume refused it as another ship before the re-read of stop 62.
+    'fullscale' is still another name."""
+    from maps.resume import ResumeError
+
+    recs = sorted((sailed["dir"] / "rec").glob("*.csv"))
+    spelt = [_edit(recs[0], tmp_path / "a.csv", header="# ship: Full_Scale"), recs[1]]
+    assert [n for n, _ in _matched(sailed["plan"], spelt)] == [s.index + 1 for s in sailed["steps"]]
+    other = [_edit(recs[0], tmp_path / "b.csv", header="# ship: fullscale"), recs[1]]
+    with pytest.raises(ResumeError, match="header '# ship: fullscale' but the plan is for full-scale"):
+        _matched(sailed["plan"], other)
+
+
 def test_a_late_schedule_matches_by_step_number_or_in_sailing_order(sailed, tmp_path):
     """A trial running behind: '# step: N' decides the step whatever the delay (only the order is
     checked); without it the recordings go in time order to the next step of their manoeuvre, the
