@@ -59,6 +59,9 @@ def register(app: typer.Typer) -> None:
             "spectrum above the ship's own motion) or 'white' (white noise from the second difference); channels derived rather than sensed (tau_r without a "
             "tau_n column, v_dot without a v_dot column) always read white; default: white (docs/detect-accuracy.md, stop 56)",
         ),
+        force: bool = typer.Option(
+            False, "--force", help="replace a --out file that is not a prior (default: refuse, naming the file)"
+        ),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
         from cli.options import validate_detect_prior_options
@@ -67,7 +70,9 @@ def register(app: typer.Typer) -> None:
         from identify.detect.yawmodel import CANDIDATES
         from primitives.errors import UserError
 
-        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed, n_rdot=n_rdot, i_z=i_z, noise_model=noise_model)
+        validate_detect_prior_options(
+            out=out, bootstrap=bootstrap, seed=seed, n_rdot=n_rdot, i_z=i_z, noise_model=noise_model, force=force
+        )
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         notes: list[str] = []
         prior = fit_prior(nominal, model, bootstrap, seed, notes, roll_rate=roll_rate, noise_model=noise_model)
@@ -76,7 +81,7 @@ def register(app: typer.Typer) -> None:
         odd = implausible_inertia(prior, i_z, n_rdot)
         if odd:
             raise UserError(f"{prior.source}: {odd} (nothing written to {out})")
-        save_prior(prior, out)
+        save_prior(prior, out, force=force)
         typer.echo(
             f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, residual sigma {prior.sigma:.2g} rad/s"
             + (f", N_p {prior.values['N_p']:.3g} N m s (yaw moment of the roll rate)" if "N_p" in prior.values else "")
@@ -124,23 +129,30 @@ def register(app: typer.Typer) -> None:
         i_z: float | None = typer.Option(None, "--i-z", help=I_Z_HELP),
         seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
+        force: bool = typer.Option(
+            False, "--force", help="replace a --plot file that detect did not draw (default: refuse, naming the file)"
+        ),
     ) -> None:
         """Say whether the ship changed, when it changed (a change point with its 95 % interval) and which
         property (yaw inertia, yaw damping, pod gain, or undecided between them)."""
         from cli.options import validate_detect_options
         from identify.detect import noisecache
-        from identify.detect.api import hull_inertia, load_prior, load_runs
+        from identify.detect.api import check_plot_out, hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
         from identify.detect.batch import detect_all
         from identify.detect.verdict import implausible_inertia
         from primitives.errors import UserError
         from primitives.heap import DETECT_KEEP_BYTES, keep_freed_memory
 
-        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
+        validate_detect_options(
+            plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z, force=force
+        )
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         prior = load_prior(prior_file)
         notes: list[str] = []
         recs = load_runs(recordings, prior.kind, notes)
+        if plot is not None:  # beyond PLOT_PANELS recordings one file each: known now, checked before the detection
+            check_plot_out([str(r.source) for r in recs], plot, PLOT_PANELS, "--plot", force=force)
         odd = implausible_inertia(prior, i_z, n_rdot)
         if odd:
             raise UserError(f"{prior_file}: {odd}")
@@ -168,7 +180,7 @@ def register(app: typer.Typer) -> None:
                 "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
                 err=True,
             )
-        written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
+        written = plot_stats(dets, plot, PLOT_PANELS, force=force) if plot is not None else []
         if json_out:
             typer.echo(
                 dumps(

@@ -12,13 +12,19 @@ import unicodedata
 from pathlib import Path
 
 from primitives.errors import UserError
-from primitives.io import FIGURE_SUFFIXES, check_out_file, check_out_path, check_replaceable_dir
+from primitives.io import FIGURE_SUFFIXES, check_figure_file, check_out_file, check_out_path, check_replaceable_dir
 from primitives.validate import MAX_MC_SAMPLES, check_counts, check_monte_carlo, in_range, one_of, positive, whole
 
 
-def check_plot_path(path: Path | None, option: str = "--plot") -> None:
-    if path is not None:
+def check_plot_path(path: Path | None, option: str = "--plot", *, writer: str | None = None, force: bool = False) -> None:
+    """A figure path; with ``writer`` (the Creator mark the command saves) an existing figure is replaced only if
+    that command drew it, or with ``--force`` (:func:`primitives.io.check_figure_file`)."""
+    if path is None:
+        return
+    if writer is None:
         check_out_file(path, FIGURE_SUFFIXES, option, "figure")
+    else:
+        check_figure_file(path, option, writer, force=force)
 
 
 def check_input_file(path: Path | str | None, option: str, what: str, kind: str) -> None:
@@ -141,8 +147,10 @@ def check_start_time(text: str | None, option: str) -> None:
         )
 
 
-def validate_primitives_options(plot: Path | None) -> None:
-    check_plot_path(plot)
+def validate_primitives_options(plot: Path | None, force: bool = False) -> None:
+    from cli.primitives_cmd import PLOT_WRITER
+
+    check_plot_path(plot, writer=PLOT_WRITER, force=force)
 
 
 def validate_design_options(
@@ -358,9 +366,18 @@ def validate_plan_options(
 
 
 def validate_detect_prior_options(
-    *, out: Path, bootstrap: int, seed: int, n_rdot: float | None = None, i_z: float | None = None, noise_model: str | None = None
+    *,
+    out: Path,
+    bootstrap: int,
+    seed: int,
+    n_rdot: float | None = None,
+    i_z: float | None = None,
+    noise_model: str | None = None,
+    force: bool = False,
 ) -> None:
-    check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
+    from identify.detect.api import check_prior_out
+
+    check_prior_out(out, "--out", force=force)  # also refuses a directory
     if noise_model is not None:
         from identify.detect.priorfit import check_noise_model  # the library's check, read only when the option is given
 
@@ -387,8 +404,11 @@ def validate_detect_options(
     seed: int,
     n_rdot: float | None = None,
     i_z: float | None = None,
+    force: bool = False,
 ) -> None:
-    check_plot_path(plot)
+    from identify.detect.api import PLOT_WRITER
+
+    check_plot_path(plot, writer=PLOT_WRITER, force=force)
     _validate_hull_inertia(n_rdot, i_z)
     in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording
     in_range(min_change, "--min-change", 0.005, 1.0)  # relative: 0.05 = 5 %

@@ -42,7 +42,14 @@ def library_rows(library) -> list[dict]:
     return rows
 
 
-def plot_library(library, path: Path) -> None:
+PLOT_WRITER = "shiptrial primitives"  # the --plot figure's Creator mark (primitives.io.is_written_figure)
+
+
+def plot_library(library, path: Path, *, force: bool = False) -> None:
+    """Each primitive's track and states; a figure primitives did not draw is refused unless ``force``."""
+    from primitives.io import check_figure_file
+
+    check_figure_file(path, "--plot", PLOT_WRITER, force=force)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -75,7 +82,7 @@ def plot_library(library, path: Path) -> None:
         axes[j // cols, 2 * (j % cols) + 1].axis("off")
     fig.suptitle("Primitive tracks (east right, north up; swept hull shaded) and states u, v, r over time", fontsize=9)
     fig.tight_layout()
-    atomic_savefig(fig, path, dpi=110)
+    atomic_savefig(fig, path, dpi=110, metadata={"Creator": PLOT_WRITER})  # how a second run knows its own plot
     plt.close(fig)
 
 
@@ -86,6 +93,9 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the library as JSON"),
         plot: Path | None = typer.Option(None, "--plot", help="draw each primitive's track and states to this PNG"),
         orders: bool = typer.Option(False, "--orders", help="also list each primitive's helm/engine orders and abort criteria"),
+        force: bool = typer.Option(
+            False, "--force", help="replace a --plot file that primitives did not draw (default: refuse, naming the file)"
+        ),
     ) -> None:
         """List the manoeuvre primitive library of a ship."""
         from cli.errors import warn_ship
@@ -93,14 +103,14 @@ def register(app: typer.Typer) -> None:
         from primitives.library import build_library
         from primitives.ship import load_profile
 
-        validate_primitives_options(plot)
+        validate_primitives_options(plot, force)
         profile = load_profile(ship)
         profile.require_planar("shiptrial primitives")
         warn_ship(profile)
         library = build_library(profile)
         rows = library_rows(library)
         if plot:
-            plot_library(library, plot)
+            plot_library(library, plot, force=force)
         if json_out:
             typer.echo(dumps(rows))
             return

@@ -86,23 +86,15 @@ def _check_table(path: str | Path, option: str, replace: bool) -> None:
 
 
 def _check_plot(path: str | Path, option: str, replace: bool) -> None:
-    from primitives.io import FIGURE_SUFFIXES, check_out_file
+    from primitives.io import check_figure_file
 
     try:
-        check_out_file(path, FIGURE_SUFFIXES, option, "figure", replace=replace, ours=is_sweep_plot, writer=WRITER)
+        check_figure_file(path, option, WRITER, force=replace)
     except UserError as exc:
         raise SweepError(str(exc)) from None
 
 
 WRITER = "shiptrial sweep"  # the plot's Creator (PNG text chunk, PDF /Creator, SVG dc:creator): how its files are known
-_PLOT_READ_MAX = 64 << 20  # a summary plot is well under a megabyte; a larger file is not one
-# The Creator field as each matplotlib backend writes it: the field, not the words anywhere (a user's diagram of a
-# workflow may well say "shiptrial sweep")
-_PLOT_MARKS = {
-    ".png": b"tEXtCreator\x00" + WRITER.encode(),
-    ".pdf": b"/Creator (" + WRITER.encode() + b")",
-    ".svg": b"<dc:title>" + WRITER.encode() + b"</dc:title>",  # within <dc:creator><cc:Agent>
-}
 
 
 def is_sweep_table(path: Path) -> bool:
@@ -123,10 +115,9 @@ def is_sweep_table(path: Path) -> bool:
 
 def is_sweep_plot(path: Path) -> bool:
     """A figure :func:`plot_summary` wrote: its Creator metadata names :data:`WRITER` (a PDF keeps it at the end)."""
-    if path.stat().st_size > _PLOT_READ_MAX:
-        return False
-    mark = _PLOT_MARKS.get(path.suffix.lower())
-    return mark is not None and mark in path.read_bytes()
+    from primitives.io import is_written_figure
+
+    return is_written_figure(path, WRITER)
 
 
 def _read(path: Path) -> dict:

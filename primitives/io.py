@@ -267,6 +267,35 @@ def read_record_lines(path: str | Path, error: type, what: str, encoding: str = 
 
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+_FIGURE_READ_MAX = 64 << 20  # a command's figure is well under a megabyte; a larger file is not one
+
+
+def figure_mark(suffix: str, writer: str) -> bytes | None:
+    """The Creator field ``writer`` as each matplotlib backend writes it (``savefig(metadata={"Creator": writer})``):
+    the field, not the words anywhere (a user's diagram of a workflow may well say "shiptrial sweep")."""
+    marks = {
+        ".png": b"tEXtCreator\x00" + writer.encode(),
+        ".pdf": b"/Creator (" + writer.encode() + b")",
+        ".svg": b"<dc:title>" + writer.encode() + b"</dc:title>",  # within <dc:creator><cc:Agent>
+    }
+    return marks.get(suffix.lower())
+
+
+def is_written_figure(path: Path, writer: str) -> bool:
+    """A figure saved with Creator metadata ``writer`` (:func:`figure_mark`; a PDF keeps it at the end): how a
+    command knows its own plot and replaces it without ``--force``."""
+    if path.stat().st_size > _FIGURE_READ_MAX:
+        return False
+    mark = figure_mark(path.suffix, writer)
+    return mark is not None and mark in path.read_bytes()
+
+
+def check_figure_file(path: str | Path, option: str, writer: str, *, force: bool = False) -> Path:
+    """:func:`check_out_file` for a figure ``writer`` saves with its Creator mark: an existing figure is replaced
+    only if it carries that mark (:func:`is_written_figure`) or ``force``."""
+    return check_out_file(
+        path, FIGURE_SUFFIXES, option, "figure", replace=force, ours=lambda p: is_written_figure(p, writer), writer=writer
+    )
 
 
 def check_out_file(

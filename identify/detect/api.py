@@ -26,6 +26,7 @@ from identify.detect.verdict import Detection, Screening, implausible_inertia, p
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
+    PRIOR_FORMATS,
     YawPrior,
     block_mean,
     predict_with_signatures,
@@ -214,7 +215,31 @@ def hull_inertia(
     return i_z, n_rdot
 
 
-def save_prior(prior: YawPrior, path: Path) -> Path:
+PLOT_WRITER = "shiptrial detect"  # the Creator mark of detect's figures: how a second run knows its own plot
+PRIOR_WRITER = "shiptrial detect-prior"
+_PRIOR_READ_MAX = 64 << 20  # a prior is kilobytes (its bootstrap refits); a larger file is not one
+
+
+def is_prior_file(path: Path) -> bool:
+    """A prior :func:`save_prior` wrote, known by its own fields: a JSON object whose ``format`` is a yaw-prior
+    format and that holds ``kind``, ``values`` and ``sigma`` (not read further: an old prior is still ours)."""
+    if path.stat().st_size > _PRIOR_READ_MAX:
+        return False
+    d = json.loads(path.read_bytes())
+    return isinstance(d, dict) and d.get("format") in PRIOR_FORMATS and {"kind", "values", "sigma"} <= d.keys()
+
+
+def check_prior_out(path: str | Path, option: str = "path", *, force: bool = False) -> Path:
+    """A prior's output path (.json): an existing file is replaced only if it is a prior (:func:`is_prior_file`)
+    or ``force``; else UserError naming it and the fix (``option``: the CLI's "--out", or the keyword's "path")."""
+    from primitives.io import check_out_file
+
+    return check_out_file(path, (".json",), option, "prior", replace=force, ours=is_prior_file, writer=PRIOR_WRITER)
+
+
+def save_prior(prior: YawPrior, path: Path, *, force: bool = False) -> Path:
+    """Write ``prior`` as JSON; a file that is not a prior is refused unless ``force`` (:func:`check_prior_out`)."""
+    check_prior_out(path, force=force)
     return atomic_write_text(path, dumps(prior.to_dict()) + "\n")
 
 
@@ -351,18 +376,36 @@ def screen(
     )
 
 
-def plot(dets: list[Detection], path: Path, panels: int = 4) -> list[Path]:
+def plot_paths(sources: list[str], path: Path, panels: int = 4) -> list[Path]:
+    """The files :func:`plot` writes for recordings ``sources``: ``path`` for up to ``panels`` of them, beyond,
+    one file per recording (``stem-NNN-<recording>``)."""
+    if len(sources) <= panels:
+        return [path]
+    out = []
+    for k, source in enumerate(sources):
+        name = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in Path(source).stem) or f"rec{k}"
+        out.append(path.with_name(f"{path.stem}-{k + 1:03d}-{name}{path.suffix}"))
+    return out
+
+
+def check_plot_out(sources: list[str], path: Path, panels: int = 4, option: str = "path", *, force: bool = False) -> list[Path]:
+    """Each file :func:`plot` would write: one that exists and detect did not draw (its Creator mark) is refused
+    unless ``force``, before any is drawn (``option``: the CLI's "--plot", or the keyword's "path")."""
+    from primitives.io import check_figure_file
+
+    return [check_figure_file(p, option, PLOT_WRITER, force=force) for p in plot_paths(sources, Path(path), panels)]
+
+
+def plot(dets: list[Detection], path: Path, panels: int = 4, *, force: bool = False) -> list[Path]:
     """Both detectors against time, one panel per recording: the LR-CUSUM statistic per candidate
     over its own threshold (left axis, statistic / threshold, alarm at 1) and the dead-zone CUSUM
     (5.1) over its threshold (right axis), the alarm and the change point with its interval. Up to
-    ``panels`` recordings in ``path``; beyond, one file per recording (``stem-<recording>``)."""
-    if len(dets) <= panels:
-        return [_figure(dets, path)]
-    out = []
-    for k, d in enumerate(dets):
-        name = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in Path(d.source).stem) or f"rec{k}"
-        out.append(_figure([d], path.with_name(f"{path.stem}-{k + 1:03d}-{name}{path.suffix}")))
-    return out
+    ``panels`` recordings in ``path``; beyond, one file per recording (:func:`plot_paths`). A file detect
+    did not draw is refused unless ``force`` (:func:`check_plot_out`), before any is drawn."""
+    paths = check_plot_out([d.source for d in dets], Path(path), panels, force=force)
+    if len(paths) == 1:
+        return [_figure(dets, paths[0])]
+    return [_figure([d], p) for d, p in zip(dets, paths)]
 
 
 def _figure(dets: list[Detection], path: Path) -> Path:
@@ -406,7 +449,7 @@ def _figure(dets: list[Detection], path: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()
-    out = atomic_savefig(fig, path, dpi=110)
+    out = atomic_savefig(fig, path, dpi=110, metadata={"Creator": PLOT_WRITER})  # how detect knows its own plot
     plt.close(fig)
     return out
 
