@@ -375,7 +375,7 @@ def validate_detect_prior_options(
     noise_model: str | None = None,
     force: bool = False,
 ) -> None:
-    from identify.detect.api import check_prior_out
+    from identify.detect.yawmodel import check_prior_out
 
     check_prior_out(out, "--out", force=force)  # also refuses a directory
     if noise_model is not None:

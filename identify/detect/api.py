@@ -26,9 +26,9 @@ from identify.detect.verdict import Detection, Screening, implausible_inertia, p
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
-    PRIOR_FORMATS,
     YawPrior,
     block_mean,
+    check_prior_out,
     predict_with_signatures,
     shift_moment,
 )
@@ -216,25 +216,6 @@ def hull_inertia(
 
 
 PLOT_WRITER = "shiptrial detect"  # the Creator mark of detect's figures: how a second run knows its own plot
-PRIOR_WRITER = "shiptrial detect-prior"
-_PRIOR_READ_MAX = 64 << 20  # a prior is kilobytes (its bootstrap refits); a larger file is not one
-
-
-def is_prior_file(path: Path) -> bool:
-    """A prior :func:`save_prior` wrote, known by its own fields: a JSON object whose ``format`` is a yaw-prior
-    format and that holds ``kind``, ``values`` and ``sigma`` (not read further: an old prior is still ours)."""
-    if path.stat().st_size > _PRIOR_READ_MAX:
-        return False
-    d = json.loads(path.read_bytes())
-    return isinstance(d, dict) and d.get("format") in PRIOR_FORMATS and {"kind", "values", "sigma"} <= d.keys()
-
-
-def check_prior_out(path: str | Path, option: str = "path", *, force: bool = False) -> Path:
-    """A prior's output path (.json): an existing file is replaced only if it is a prior (:func:`is_prior_file`)
-    or ``force``; else UserError naming it and the fix (``option``: the CLI's "--out", or the keyword's "path")."""
-    from primitives.io import check_out_file
-
-    return check_out_file(path, (".json",), option, "prior", replace=force, ours=is_prior_file, writer=PRIOR_WRITER)
 
 
 def save_prior(prior: YawPrior, path: Path, *, force: bool = False) -> Path:

@@ -17,9 +17,11 @@ shared kernel's ``naval-vessel`` profile (:func:`identify.yawid.model.true_param
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -377,3 +379,24 @@ def _signature_columns(prior: YawPrior, rel: float) -> tuple[np.ndarray, np.ndar
     cols[names.index("I_r"), 1] *= 1 + rel
     cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
     return cols, np.array([1.0, 1.0, 1.0, 1 + rel])
+
+
+PRIOR_WRITER = "shiptrial detect-prior"
+_PRIOR_READ_MAX = 64 << 20  # a prior is kilobytes (its bootstrap refits); a larger file is not one
+
+
+def is_prior_file(path: Path) -> bool:
+    """A prior :func:`save_prior` wrote, known by its own fields: a JSON object whose ``format`` is a yaw-prior
+    format and that holds ``kind``, ``values`` and ``sigma`` (not read further: an old prior is still ours)."""
+    if path.stat().st_size > _PRIOR_READ_MAX:
+        return False
+    d = json.loads(path.read_bytes())
+    return isinstance(d, dict) and d.get("format") in PRIOR_FORMATS and {"kind", "values", "sigma"} <= d.keys()
+
+
+def check_prior_out(path: str | Path, option: str = "path", *, force: bool = False) -> Path:
+    """A prior's output path (.json): an existing file is replaced only if it is a prior (:func:`is_prior_file`)
+    or ``force``; else UserError naming it and the fix (``option``: the CLI's "--out", or the keyword's "path")."""
+    from primitives.io import check_out_file
+
+    return check_out_file(path, (".json",), option, "prior", replace=force, ours=is_prior_file, writer=PRIOR_WRITER)
