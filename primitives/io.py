@@ -336,10 +336,11 @@ def check_out_file(
 
 
 def _recognised(ours: Callable[[Path], bool], path: Path) -> bool:
-    """``ours(path)``, False for a file that cannot be read (a link to nowhere, no permission): not shown ours."""
+    """``ours(path)``, False for a file that cannot be read (a link to nowhere, no permission) or parsed (a JSON
+    nested deeper than the parser recurses raises RecursionError, not ValueError): not shown ours."""
     try:
         return path.is_file() and bool(ours(path))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return False
 
 

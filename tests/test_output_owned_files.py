@@ -95,3 +95,16 @@ def test_primitives_plot_replaces_only_a_figure_primitives_drew(tmp_path, capsys
     assert not ours.read_bytes().endswith(b"\0")
     assert _run(["primitives", "--plot", str(mine), "--force"]) in (0, None)
     assert mine.read_bytes()[:8] == USERS[:8] and mine.read_bytes() != USERS
+
+
+def test_detect_prior_refuses_a_deeply_nested_json_in_one_line(tmp_path):
+    """A user's JSON nested deeper than the parser recurses is not a prior: refused in one line, not a RecursionError
+    traceback (review of stop 62)."""
+    from identify.detect.yawmodel import check_prior_out
+    from primitives.errors import UserError
+
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000)
+    with pytest.raises(UserError, match=r"deep\.json: exists and was not written by shiptrial detect-prior"):
+        check_prior_out(deep)
+    assert deep.read_text() == "[" * 100_000
