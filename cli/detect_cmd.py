@@ -145,7 +145,14 @@ def register(app: typer.Typer) -> None:
         from primitives.heap import DETECT_KEEP_BYTES, keep_freed_memory
 
         validate_detect_options(
-            plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z, force=force
+            plot=plot,
+            false_alarm=false_alarm,
+            min_change=min_change,
+            seed=seed,
+            n_rdot=n_rdot,
+            i_z=i_z,
+            force=force,
+            one_figure=len(recordings) <= PLOT_PANELS,
         )
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         prior = load_prior(prior_file)

@@ -405,10 +405,13 @@ def validate_detect_options(
     n_rdot: float | None = None,
     i_z: float | None = None,
     force: bool = False,
+    one_figure: bool = True,
 ) -> None:
     from identify.detect.api import PLOT_WRITER
 
-    check_plot_path(plot, writer=PLOT_WRITER, force=force)
+    # beyond PLOT_PANELS recordings --plot itself is never written (one file per recording, checked once read):
+    # only its extension is checked here, so a user's file of that name is not refused for nothing
+    check_plot_path(plot, writer=PLOT_WRITER if one_figure else None, force=force)
     _validate_hull_inertia(n_rdot, i_z)
     in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording
     in_range(min_change, "--min-change", 0.005, 1.0)  # relative: 0.05 = 5 %

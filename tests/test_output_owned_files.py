@@ -108,3 +108,23 @@ def test_detect_prior_refuses_a_deeply_nested_json_in_one_line(tmp_path):
     with pytest.raises(UserError, match=r"deep\.json: exists and was not written by shiptrial detect-prior"):
         check_prior_out(deep)
     assert deep.read_text() == "[" * 100_000
+
+
+def test_detect_plot_beyond_four_recordings_leaves_a_users_file_of_the_stem_alone(recordings, tmp_path, capsys):
+    """Beyond 4 recordings ``--plot m.png`` names only the stem of the per-recording files: a user's m.png, never
+    written, is not refused (review of stop 62: it was, exit 2); a second run replaces its own files."""
+    from identify.detect.api import fit_prior, save_prior
+
+    nominal, run = recordings
+    prior = save_prior(fit_prior([nominal], "full", bootstrap=0), tmp_path / "prior.json")
+    runs = []
+    for k in range(5):
+        runs.append(tmp_path / f"r{k}.csv")
+        runs[-1].write_bytes(run.read_bytes())
+    mine = tmp_path / "m.png"
+    mine.write_bytes(USERS)
+    args = ["detect", *map(str, runs), "--prior", str(prior), "--plot", str(mine)]
+    for _ in range(2):
+        assert _run(args) in (0, None), capsys.readouterr().err
+        assert mine.read_bytes() == USERS
+        assert len(list(tmp_path.glob("m-00?-r?.png"))) == 5
