@@ -74,7 +74,8 @@ def test_a_profile_holds_the_sway_mass_at_factors_of_the_ends():
 @pytest.mark.slow
 def test_the_documented_geodesic_command_runs_on_a_stored_creeping_fit():
     """docs/mass-accuracy.md's `--valley --geodesic` command on imu_mount 6/1 (stop 57's table: the exact path stalls,
-    the geodesic LM converges at -11.66 % / -31.1 mm); the merge of stop 57 once broke it with an AttributeError."""
+    the geodesic LM converged at -11.66 % / -31.1 mm; -11.715 % since stop 62's corrected innovation sd, which moves
+    every oe answer by about 0.1 point); the merge of stop 57 once broke it with an AttributeError."""
     root = Path(__file__).resolve().parents[1]
     cmd = [sys.executable, "benchmarks/diag_rollmass_redo.py", "benchmarks/rollmass_redo_s56.jsonl", "--runs", "30"]
     cmd += ["--only", "imu_mount/6/case1", "--valley", "--geodesic", "300"]
@@ -83,4 +84,4 @@ def test_the_documented_geodesic_command_runs_on_a_stored_creeping_fit():
     line = next(ln for ln in out.stdout.splitlines() if "geodesic LM" in ln)
     assert "converged" in line and "fit conv True" in line
     m = float(line.split(" m ")[1].split()[0])
-    assert abs(m - -11.657) < 0.05
+    assert abs(m - -11.715) < 0.05
