@@ -23,6 +23,9 @@ from primitives.errors import UserError
 M_PER_NM = 1852.0
 KN_PER_MPS = 3600.0 / M_PER_NM
 TOOL = "shiptrial"
+# the marks by which an export knows its own RTZ and HTML card (maps.export.ownership): written and read from here
+RTZ_EXT_NS = f"urn:{TOOL}:rtz-trial:1"
+HTML_GENERATOR_META = f"<meta name='generator' content='{TOOL}'>"
 
 
 class ExportError(UserError):

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import (
+    HTML_GENERATOR_META,
     KN_PER_MPS,
     check_plan,
     clock,
@@ -359,7 +360,7 @@ def card_html(
         figs = figures or own
         map_png, states_png = figs.png("track"), figs.png("states")
     h = [
-        f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><meta name='generator' content='shiptrial'><title>Sea trial card {e(vname)}</title>",
+        f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>{HTML_GENERATOR_META}<title>Sea trial card {e(vname)}</title>",
         f"<style>{_CSS}</style></head><body>",
         f"<h1>Sea trial card: {e(vname)}</h1>",
     ]

@@ -35,7 +35,7 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from maps.export._common import TOOL, ExportError
+from maps.export._common import HTML_GENERATOR_META, RTZ_EXT_NS, TOOL, ExportError
 from primitives.io import OUTPUT_MARKER, atomic_write_text, file_head
 
 MANIFEST = ".shiptrial-exported"  # not ".shiptrial-export.*": that prefix names the staging directories
@@ -45,9 +45,9 @@ MANIFEST = ".shiptrial-exported"  # not ".shiptrial-export.*": that prefix names
 SCHEDULE_HEAD = "time_s,time_from_start,utc,lat,lon,x_north_m,y_east_m,heading_deg,speed_mps,speed_kn,manoeuvre,"
 _MARKS = {
     ".gpx": f' creator="{TOOL}"'.encode(),
-    ".rtz": f'xmlns:st="urn:{TOOL}:rtz-trial:1"'.encode(),  # rtz.EXT_NS
+    ".rtz": f'xmlns:st="{RTZ_EXT_NS}"'.encode(),
     ".geojson": f'{{"type":"FeatureCollection","properties":{{"generator":"{TOOL}",'.encode(),
-    ".html": f"<meta name='generator' content='{TOOL}'>".encode(),  # card.py's head
+    ".html": HTML_GENERATOR_META.encode(),
     ".csv": SCHEDULE_HEAD.encode(),  # csv.plan_csv's header row
 }
 _PDF_MARK, _PDF_TAIL = f"/Producer ({TOOL})".encode(), 1 << 16

@@ -26,6 +26,7 @@ import numpy as np
 from maps.export._common import (
     KN_PER_MPS,
     M_PER_NM,
+    RTZ_EXT_NS,
     TOOL,
     ExportError,
     check_plan,
@@ -43,7 +44,7 @@ from maps.plan import Plan
 from primitives.io import atomic_write_bytes
 
 RTZ_NS = "http://www.cirm.org/RTZ/1/2"
-EXT_NS = "urn:shiptrial:rtz-trial:1"
+EXT_NS = RTZ_EXT_NS
 MAX_BYTES = 400_000  # the RTZ validator's limit on a route file
 VESSEL_NAME_MAX = 32  # the RTZ validator warns above this length
 SPEED_DECIMALS = 3
